@@ -1,0 +1,157 @@
+"""Simulation actors: each holds the assemblies it has seen and labels batches of operations.
+
+A ``SimWorker`` is a long-lived Ray actor. A task (``SimTask``) names an assembly by geometry hash and
+carries a reference to it in the object store (put once by the pool, fetched once per worker and
+cached); it carries a batch of operations with their content keys and per-operation seeds, so a
+label depends only on (root seed, content key), never on which worker ran it or when. Physics spaces
+are built inside the worker by the simulator; nothing live crosses the wire. A task returns a
+``BatchResult``: one row per operation in the dataset schema (``rap.dataset.SCHEMA``) plus timings.
+
+The simulator and renderer are looked up by import path (``Backend``), so the same actor serves the
+real physics (the default) and anything with the same signatures.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+import ray
+
+from rap import __version__
+from rap.dataset import IMAGE_SIZE
+from rap.operation import Operation, subset_key
+
+from rap.farm.runtime import node_label
+
+__all__ = ["Backend", "SimTask", "BatchResult", "SimWorker", "resolve"]
+
+_ASSEMBLY_CACHE = 32  # assemblies kept per worker (LRU, by geometry hash)
+
+
+@dataclass(frozen=True)
+class Backend:
+    """Import paths (``module:attr``) of the simulator and the renderer used by the workers.
+
+    ``simulate(assembly, operation, params, rng) -> SimResult(successes, trials, score, seconds)``;
+    ``render(assembly, operation, size=...) -> uint8 [2, size, size]``.
+    """
+
+    simulate: str = "rap.sim.simulator:simulate"
+    render: str = "rap.render.images:render_pair"
+
+
+def resolve(path: str) -> Callable:
+    """The object at ``module:attr``."""
+    mod, _, attr = path.partition(":")
+    obj: Any = importlib.import_module(mod)
+    for a in attr.split("."):
+        obj = getattr(obj, a)
+    return obj
+
+
+@dataclass(frozen=True)
+class SimTask:
+    """A batch of operations of one assembly. ``assembly_ref`` is a one-element list holding the
+    ObjectRef, so Ray does not fetch the assembly for every task (the worker caches it)."""
+
+    task_id: int
+    assembly_name: str
+    geometry_hash: str
+    assembly_ref: list
+    operations: tuple[Operation, ...]
+    keys: tuple[str, ...]
+    seeds: tuple[int, ...]
+    params: Any  # rap.sim.params.SimParams
+    params_json: str
+    images: bool = True
+
+
+@dataclass
+class BatchResult:
+    """What a task returns: rows (dicts in ``rap.dataset.SCHEMA``; ``image`` is None when images
+    were not asked for) in the task's order, and where the time went."""
+
+    task_id: int
+    rows: list[dict]
+    node: str
+    pid: int
+    sim_s: float = 0.0  # inside simulate()
+    render_s: float = 0.0  # inside render()
+    task_s: float = 0.0  # the whole actor method, fetch of the assembly included
+    attempts: int = 1  # set by the pool
+    extra: dict = field(default_factory=dict)
+
+
+class SimWorker:
+    """Actor body (wrapped with ``ray.remote`` by the pool with its retry options)."""
+
+    def __init__(self, backend: Backend = Backend()):
+        self._backend = backend
+        self._simulate = None
+        self._render = None
+        self._assemblies: OrderedDict[str, Any] = OrderedDict()
+        self._node = node_label()
+        self._pid = os.getpid()
+
+    def info(self) -> dict:
+        """Where this worker runs (also a readiness probe)."""
+        return {"node": self._node, "pid": self._pid}
+
+    def _functions(self):
+        if self._simulate is None:
+            self._simulate = resolve(self._backend.simulate)
+            self._render = resolve(self._backend.render)
+        return self._simulate, self._render
+
+    def _assembly(self, task: SimTask):
+        a = self._assemblies.get(task.geometry_hash)
+        if a is None:
+            a = ray.get(task.assembly_ref[0])
+            self._assemblies[task.geometry_hash] = a
+            while len(self._assemblies) > _ASSEMBLY_CACHE:
+                self._assemblies.popitem(last=False)
+        else:
+            self._assemblies.move_to_end(task.geometry_hash)
+        return a
+
+    def run(self, task: SimTask) -> BatchResult:
+        t0 = time.perf_counter()
+        simulate, render = self._functions()
+        assembly = self._assembly(task)
+        rows, sim_s, render_s = [], 0.0, 0.0
+        for op, key, seed in zip(task.operations, task.keys, task.seeds):
+            t = time.perf_counter()
+            res = simulate(assembly, op, task.params, np.random.default_rng(seed))
+            t1 = time.perf_counter()
+            sim_s += t1 - t
+            image = None
+            if task.images:
+                image = np.ascontiguousarray(render(assembly, op, size=IMAGE_SIZE), np.uint8).tobytes()
+                render_s += time.perf_counter() - t1
+            rows.append({
+                "key": key,
+                "assembly": task.assembly_name,
+                "geometry_hash": task.geometry_hash,
+                "subassembly": subset_key(op.subassembly),
+                "moving": subset_key(op.moving),
+                "fixed": subset_key(op.fixed),
+                "direction_x": float(op.direction[0]),
+                "direction_y": float(op.direction[1]),
+                "score": float(res.score),
+                "successes": int(res.successes),
+                "trials": int(res.trials),
+                "image": image,
+                "seed": int(seed),
+                "params": task.params_json,
+                "code_version": __version__,
+                "node": self._node,
+                "seconds": float(getattr(res, "seconds", t1 - t)),
+            })
+        return BatchResult(task_id=task.task_id, rows=rows, node=self._node, pid=self._pid,
+                           sim_s=sim_s, render_s=render_s, task_s=time.perf_counter() - t0)

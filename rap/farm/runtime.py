@@ -1,0 +1,89 @@
+"""Starting or joining Ray: the one place where the farm decides which cluster it runs on.
+
+``connect(address=None)``:
+
+* no address and no ``RAY_ADDRESS`` in the environment -> start an embedded local Ray on this machine
+  with all its cores (or ``num_cpus``); it is shut down when the context exits;
+* ``address="auto"`` or ``"HOST:PORT"`` (or ``RAY_ADDRESS``) -> join that existing cluster; the
+  cluster is left running when the context exits.
+
+Ray 2.60 turns token authentication on by default for a cluster started by ``ray.init()`` (a token
+is created in ``~/.ray/auth_token`` unless ``RAY_AUTH_TOKEN`` / ``RAY_AUTH_TOKEN_PATH`` supply
+one). Joining a cluster that runs with ``RAY_AUTH_MODE=token`` needs the same token here; we never
+switch authentication off (docs/CLUSTER.md).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import socket
+from dataclasses import dataclass
+from typing import Iterator
+
+import ray
+
+from rap.errors import InputError
+
+__all__ = ["RayRuntime", "connect", "node_label", "cluster_cpus"]
+
+
+@dataclass(frozen=True)
+class RayRuntime:
+    """What ``connect`` started or joined."""
+
+    address: str | None  # None: an embedded local Ray started by us
+    started_here: bool  # True: an embedded Ray that goes away with the context
+    cpus: int  # CPUs in the whole cluster
+    nodes: int  # alive nodes
+
+
+def cluster_cpus() -> int:
+    """CPUs across the alive nodes of the connected cluster (at least 1)."""
+    return max(1, int(ray.cluster_resources().get("CPU", 1)))
+
+
+def node_label() -> str:
+    """Which node this process runs on: ``hostname/<node id prefix>`` (distinct per Ray node, even
+    for two nodes on one machine)."""
+    try:
+        nid = ray.get_runtime_context().get_node_id() or ""
+    except Exception:  # not inside Ray
+        nid = ""
+    host = socket.gethostname()
+    return f"{host}/{nid[:12]}" if nid else host
+
+
+@contextlib.contextmanager
+def connect(address: str | None = None, num_cpus: int | None = None,
+            log_to_driver: bool = False) -> Iterator[RayRuntime]:
+    """Start an embedded Ray or join a cluster for the duration of the ``with`` block.
+
+    If Ray is already initialised in this process (a test, a notebook, a Ray Job), that session is
+    used and left alone. Errors reaching a cluster raise ``InputError`` (one line).
+    """
+    if ray.is_initialized():
+        yield RayRuntime(address=address, started_here=False, cpus=cluster_cpus(),
+                         nodes=sum(1 for n in ray.nodes() if n.get("Alive")))
+        return
+    address = address or os.environ.get("RAY_ADDRESS") or None
+    kwargs = dict(log_to_driver=log_to_driver, configure_logging=True, logging_level="WARNING")
+    try:
+        if address:
+            ray.init(address=address, **kwargs)
+        else:
+            ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False, **kwargs)
+    except (ConnectionError, ValueError, RuntimeError, TimeoutError) as exc:
+        where = address or "a local Ray instance"
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"cannot start or reach {where}: {msg}") from None
+    except Exception as exc:  # ray.exceptions.AuthenticationError and friends
+        if type(exc).__module__.startswith("ray"):
+            msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise InputError(f"cannot connect to {address or 'local Ray'}: {msg}") from None
+        raise
+    try:
+        yield RayRuntime(address=address, started_here=not address, cpus=cluster_cpus(),
+                         nodes=sum(1 for n in ray.nodes() if n.get("Alive")))
+    finally:
+        ray.shutdown()

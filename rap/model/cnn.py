@@ -1,0 +1,99 @@
+"""The robustness CNN (paper, section 7): the network and its configuration, nothing else.
+
+Input: a batch of 2-channel 64x64 images (channel 0 the start image, channel 1 the goal image of an
+assembly operation), float in [0, 1] — ``RobustnessCNN.forward`` takes uint8 or float and scales
+uint8 itself, so callers can keep images as uint8 until the batch is on the device. Output: logits
+of the two classes, index 0 "not high" and index 1 "high" (score >= the threshold stored in the
+checkpoint, 0.95 in the paper).
+
+Four convolutions with 4x4 kernels, each followed by ReLU and 2x2 max-pooling; three fully
+connected layers with ReLU and dropout; a final linear layer to the two classes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+
+import torch
+import torch.nn as nn
+
+__all__ = ["ModelConfig", "RobustnessCNN", "NOT_HIGH", "HIGH"]
+
+NOT_HIGH = 0
+HIGH = 1
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """Shape of the network. ``channels`` are the four convolutions' output channels, ``hidden``
+    the three fully connected layers' widths."""
+
+    in_channels: int = 2
+    image_size: int = 64
+    channels: tuple[int, int, int, int] = (16, 32, 64, 64)
+    kernel_size: int = 4
+    padding: int = 2
+    hidden: tuple[int, int, int] = (256, 128, 64)
+    dropout: float = 0.3
+    n_classes: int = 2
+
+    def __post_init__(self):
+        # from_dict hands lists over; keep the dataclass hashable and comparable
+        object.__setattr__(self, "channels", tuple(int(c) for c in self.channels))
+        object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
+        if len(self.channels) != 4 or len(self.hidden) != 3:
+            raise ValueError("ModelConfig: four convolution and three hidden layers")
+        if self.feature_size() < 1:
+            raise ValueError("ModelConfig: image too small for four conv+pool stages")
+
+    def feature_size(self) -> int:
+        """Side of the feature map after the four conv + pool stages."""
+        s = self.image_size
+        for _ in self.channels:
+            s = (s + 2 * self.padding - self.kernel_size + 1) // 2
+        return s
+
+    def to_dict(self) -> dict:
+        """Plain JSON-able dict (lists, ints, floats) as stored in a checkpoint."""
+        d = asdict(self)
+        d["channels"] = list(self.channels)
+        d["hidden"] = list(self.hidden)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ModelConfig":
+        names = {f.name for f in fields(cls)}
+        unknown = set(d) - names
+        if unknown:
+            raise ValueError(f"unknown model config fields: {sorted(unknown)}")
+        return cls(**d)
+
+
+class RobustnessCNN(nn.Module):
+    """start/goal image pair -> logits over (not high, high)."""
+
+    def __init__(self, config: ModelConfig):
+        super().__init__()
+        self.config = config
+        layers: list[nn.Module] = []
+        c_in = config.in_channels
+        for c_out in config.channels:
+            layers += [nn.Conv2d(c_in, c_out, config.kernel_size, padding=config.padding),
+                       nn.ReLU(inplace=True), nn.MaxPool2d(2)]
+            c_in = c_out
+        self.features = nn.Sequential(*layers)
+        width = c_in * config.feature_size() ** 2
+        head: list[nn.Module] = [nn.Flatten()]
+        for h in config.hidden:
+            head += [nn.Linear(width, h), nn.ReLU(inplace=True), nn.Dropout(config.dropout)]
+            width = h
+        head.append(nn.Linear(width, config.n_classes))
+        self.head = nn.Sequential(*head)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if x.dtype == torch.uint8:
+            x = x.float().div_(255.0)
+        return self.head(self.features(x))
+
+    def num_parameters(self) -> int:
+        return sum(p.numel() for p in self.parameters())

@@ -1,0 +1,124 @@
+"""The planner's view of a trained robustness CNN: images in, P(high) out.
+
+    predictor = Predictor.load("models/default.pt")          # device="cpu" by default
+    p = predictor.prob_high(images)   # images: uint8 [N, 2, 64, 64] -> float64 [N]
+    predictor.threshold               # a score >= threshold is "high" (0.95 in the paper)
+    predictor.is_high(images)         # p >= 0.5, the classifier's decision
+    predictor.trained_on(geometry_hash), predictor.shift(images)   # distance from training data
+
+``prob_high`` scores one batch in eval mode without gradients; the planner ranks the candidate
+operations of a step by it. Loading never runs code from the file (see ``checkpoint``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from rap.errors import InputError
+from rap.model.checkpoint import Checkpoint, load_checkpoint
+from rap.model.cnn import HIGH, RobustnessCNN
+from rap.model.data import image_stats
+
+__all__ = ["Predictor", "batch_prob_high", "resolve_device"]
+
+
+def resolve_device(name: str | torch.device = "auto") -> torch.device:
+    """``auto``: CUDA when present, else CPU; ``cpu``; ``cuda`` (InputError when absent)."""
+    name = str(name)
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name.startswith("cuda") and not torch.cuda.is_available():
+        raise InputError("--device cuda: no CUDA device is available")
+    try:
+        return torch.device(name)
+    except RuntimeError:
+        raise InputError(f"unknown device {name!r} (auto, cpu or cuda)") from None
+
+
+@torch.no_grad()
+def batch_prob_high(model: RobustnessCNN, images: np.ndarray, device: torch.device) -> np.ndarray:
+    """Softmax probability of "high" for uint8 images [N, 2, 64, 64], one forward pass."""
+    x = torch.from_numpy(np.ascontiguousarray(images)).to(device)
+    return torch.softmax(model(x).float(), dim=1)[:, HIGH].cpu().numpy().astype(np.float64)
+
+
+class Predictor:
+    """A loaded checkpoint ready to score operations."""
+
+    def __init__(self, checkpoint: Checkpoint, device: torch.device):
+        self.checkpoint = checkpoint
+        self.device = device
+        self.model = checkpoint.model.to(device).eval()
+        shape = (checkpoint.config.in_channels, checkpoint.config.image_size,
+                 checkpoint.config.image_size)
+        self.image_shape = shape
+
+    @classmethod
+    def load(cls, path: str | Path, device: str = "cpu") -> "Predictor":
+        dev = resolve_device(device)
+        return cls(load_checkpoint(path, device=dev), dev)
+
+    @property
+    def threshold(self) -> float:
+        return self.checkpoint.threshold
+
+    @property
+    def config(self):
+        return self.checkpoint.config
+
+    @property
+    def metrics(self) -> dict:
+        return self.checkpoint.metrics
+
+    @property
+    def assemblies(self) -> list[dict]:
+        return self.checkpoint.assemblies
+
+    @property
+    def data_fingerprint(self) -> str:
+        return self.checkpoint.data_fingerprint
+
+    @property
+    def image_stats(self) -> dict:
+        return self.checkpoint.image_stats
+
+    @property
+    def training(self) -> dict:
+        return self.checkpoint.training
+
+    def prob_high(self, images: np.ndarray) -> np.ndarray:
+        """P(high) for each image pair: uint8 [N, 2, 64, 64] -> float64 [N] (one batch)."""
+        images = np.asarray(images)
+        if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != self.image_shape:
+            raise ValueError(f"images must be uint8 [N, {', '.join(map(str, self.image_shape))}], "
+                             f"got {images.dtype} {list(images.shape)}")
+        if len(images) == 0:
+            return np.zeros(0, dtype=np.float64)
+        self.model.eval()
+        return batch_prob_high(self.model, images, self.device)
+
+    def is_high(self, images: np.ndarray) -> np.ndarray:
+        return self.prob_high(images) >= 0.5
+
+    def trained_on(self, geometry_hash: str) -> bool:
+        """Whether an assembly with this geometry hash was in the training data."""
+        for a in self.assemblies:
+            h = a["geometry_hash"]
+            if geometry_hash == h or (isinstance(h, list) and geometry_hash in h):
+                return True
+        return False
+
+    def shift(self, images: np.ndarray) -> dict:
+        """How far a batch of images lies from the training images: per channel, the z-score of
+        the batch's mean foreground fraction against the training images' distribution, and the
+        mean absolute difference of the coarse 8x8 foreground maps (0 same, 1 disjoint)."""
+        ref = self.image_stats
+        new = image_stats([np.asarray(images, dtype=np.uint8)])
+        z = [(m - rm) / rs if rs > 0 else 0.0 for m, rm, rs in
+             zip(new["foreground_mean"], ref["foreground_mean"], ref["foreground_std"])]
+        coarse = float(np.abs(np.asarray(new["coarse_foreground"])
+                              - np.asarray(ref["coarse_foreground"])).mean())
+        return {"foreground_z": z, "coarse_difference": coarse, "rows": new["rows"]}

@@ -1,0 +1,130 @@
+"""Convex pieces of parts for the physics engine.
+
+A part (outer ring with holes) is triangulated exactly by ``rap.geometry.triangulate`` when that
+module is available, otherwise by shapely's constrained Delaunay triangulation (its triangles use
+the input vertices only, which are mapped back to the exact input points). Adjacent triangles are
+then merged greedily while their union stays convex, decided exactly on the ``Fraction``
+coordinates (Hertel-Mehlhorn style: at most 4x the minimum number of convex pieces), because fewer
+shapes make the simulation faster. The union of the pieces is the part exactly; conversion to
+floats happens only at the end.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from functools import lru_cache
+
+from rap.assembly import Assembly, Part
+
+__all__ = ["convex_pieces", "triangles", "assembly_pieces"]
+
+Pt = tuple[Fraction, Fraction]
+
+
+def _cross(o: Pt, a: Pt, b: Pt) -> Fraction:
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+def _ccw(tri: tuple[Pt, ...]) -> tuple[Pt, ...]:
+    return tri if _cross(*tri[:3]) > 0 else tuple(reversed(tri))
+
+
+def _geometry_triangles(part: Part):
+    """Triangles from rap.geometry.triangulate, or None when that module is absent/unknown."""
+    try:
+        from rap.geometry import triangulate as tri_mod  # noqa: PLC0415
+    except ImportError:
+        return None
+    for name in ("triangulate_part", "triangulate"):
+        fn = getattr(tri_mod, name, None)
+        if callable(fn):
+            try:
+                out = fn(part)
+            except TypeError:
+                continue
+            tris = []
+            for t in out:
+                pts = tuple((Fraction(x), Fraction(y)) for x, y in t)
+                if len(pts) >= 3 and _cross(*pts[:3]) != 0:
+                    tris.append(pts)
+            return tris
+    return None
+
+
+def _shapely_triangles(part: Part) -> list[tuple[Pt, ...]]:
+    import shapely
+    from shapely.geometry import Polygon
+
+    exact: dict[tuple[float, float], Pt] = {}
+    for ring in part.rings():
+        for p in ring:
+            exact[(float(p[0]), float(p[1]))] = p
+    poly = Polygon(part.float_outer(), part.float_holes())
+    tris = []
+    for g in shapely.get_parts(shapely.constrained_delaunay_triangles(poly)):
+        coords = list(g.exterior.coords)[:3]
+        tris.append(tuple(exact.get((x, y), (Fraction(x), Fraction(y))) for x, y in coords))
+    return tris
+
+
+def triangles(part: Part) -> list[tuple[Pt, ...]]:
+    """CCW triangles covering ``part`` exactly (exact coordinates)."""
+    tris = _geometry_triangles(part)
+    if tris is None:
+        tris = _shapely_triangles(part)
+    return [_ccw(t) for t in tris]
+
+
+def _is_convex(poly: list[Pt]) -> bool:
+    n = len(poly)
+    return all(_cross(poly[i], poly[(i + 1) % n], poly[(i + 2) % n]) >= 0 for i in range(n))
+
+
+def _drop_collinear(poly: list[Pt]) -> list[Pt]:
+    out = [p for i, p in enumerate(poly)
+           if _cross(poly[i - 1], p, poly[(i + 1) % len(poly)]) != 0]
+    return out
+
+
+def _try_merge(a: list[Pt], b: list[Pt]) -> list[Pt] | None:
+    """Union of two CCW convex polygons sharing an edge, if it is convex."""
+    na, nb = len(a), len(b)
+    for i in range(na):
+        p, q = a[i], a[(i + 1) % na]
+        for j in range(nb):
+            if b[j] == q and b[(j + 1) % nb] == p:
+                # a: ... p q ...; b walks q -> p; splice b's other vertices between p and q
+                merged = a[: i + 1] + [b[(j + 2 + k) % nb] for k in range(nb - 2)] + a[i + 1:]
+                merged = _drop_collinear(merged)
+                return merged if _is_convex(merged) else None
+    return None
+
+
+def convex_pieces(part: Part) -> list[list[Pt]]:
+    """Convex CCW pieces (exact) whose union is ``part``; O(t^3) for t triangles (t is small)."""
+    pieces = [list(t) for t in triangles(part)]
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(pieces)):
+            for j in range(i + 1, len(pieces)):
+                m = _try_merge(pieces[i], pieces[j])
+                if m is not None:
+                    pieces[i] = m
+                    del pieces[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return pieces
+
+
+@lru_cache(maxsize=64)
+def _cached(assembly: Assembly) -> dict[str, tuple[tuple[tuple[float, float], ...], ...]]:
+    return {p.id: tuple(tuple((float(x), float(y)) for x, y in piece) for piece in convex_pieces(p))
+            for p in assembly.parts}
+
+
+def assembly_pieces(assembly: Assembly) -> dict[str, tuple[tuple[tuple[float, float], ...], ...]]:
+    """Float convex pieces of every part, keyed by part id (cached per assembly)."""
+    return _cached(assembly)
