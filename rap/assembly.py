@@ -233,13 +233,23 @@ def load_assembly(path: str | Path, validate: bool = True) -> Assembly:
     return parse_assembly(data, source, default_name=path.stem, validate=validate)
 
 
-def _num_json(v: Fraction) -> int | float | str:
+def _num_json(v: Fraction) -> int | float:
+    """A JSON number that ``load_assembly`` (decimal parsing) reads back as exactly ``v``."""
     if v.denominator == 1:
         return int(v.numerator)
-    d = Decimal(v.numerator) / Decimal(v.denominator)
-    if Fraction(d) == v:
-        return float(d) if Fraction(float(d)) == v else str(d)
-    raise ValueError(f"{v} has no finite decimal expansion")
+    den, twos, fives = v.denominator, 0, 0
+    while den % 2 == 0:
+        den, twos = den // 2, twos + 1
+    while den % 5 == 0:
+        den, fives = den // 5, fives + 1
+    if den != 1:
+        raise ValueError(f"{v} has no finite decimal expansion")
+    k = max(twos, fives)
+    d = Decimal(v.numerator * 10 ** k // v.denominator).scaleb(-k)  # exact
+    f = float(d)
+    if Fraction(Decimal(repr(f))) == v:  # json writes repr(f); reading it back is exact
+        return f
+    raise ValueError(f"{v} cannot be written as a JSON number that reads back exactly")
 
 
 def assembly_to_json(assembly: Assembly) -> dict:

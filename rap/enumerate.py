@@ -51,39 +51,21 @@ def label_seed(op: Operation, geometry_hash: str, params_fingerprint: str, root_
     return derive_seed(root_seed, op.key(geometry_hash, params_fingerprint))
 
 
-def _subset_partitions(ndbg, subset: frozenset[str], mode: str):
-    from rap.geometry import partitions as P
-
-    if mode == "all":
-        return P.all_partitions(ndbg, subset)
-    return P.online_partitions(ndbg, subset)
-
-
 def reachable_operations(assembly: Assembly, mode: str = "all") -> Iterable[Operation]:
-    """Operations of every reachable subassembly (possibly with repeats), in traversal order."""
+    """Operations of every reachable composite subassembly of the AND/OR graph, in graph order.
+
+    Raises ``rap.geometry.partitions.TooManyPartitions`` (an ``InputError``) past the geometry
+    layer's enumeration budget.
+    """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, not {mode!r}")
-    from rap.geometry import andor
+    from rap.geometry.andor import and_or_graph
     from rap.geometry.ndbg import build_ndbg
 
-    ndbg = build_ndbg(assembly)
-    graph = andor.build_andor(assembly, ndbg=ndbg, mode=mode) if hasattr(andor, "build_andor") else None
-    if graph is not None and hasattr(graph, "operations"):
-        yield from graph.operations()
-        return
-    # Generic traversal over subassemblies: start from the whole, split by every partition.
-    whole = frozenset(assembly.ids)
-    seen: set[frozenset[str]] = set()
-    stack = [whole]
-    while stack:
-        subset = stack.pop()
-        if subset in seen or len(subset) < 2:
-            continue
-        seen.add(subset)
-        for part in _subset_partitions(ndbg, subset, mode):
+    graph = and_or_graph(build_ndbg(assembly), mode=mode)
+    for subset in sorted(graph.partitions, key=lambda s: (len(s), sorted(s))):
+        for part in graph.partitions[subset]:
             yield part.operation()
-            stack.append(frozenset(part.moving))
-            stack.append(frozenset(part.fixed))
 
 
 def enumerate_operations(assembly: Assembly, mode: str = "all") -> list[Operation]:
@@ -100,15 +82,16 @@ def sample_operations(ops: Sequence[Operation], k: int | None, root_seed: int,
     """A seeded subset of ``k`` operations (all of them when ``k`` is None or >= len(ops)).
 
     Ranks operations by ``derive_seed(root_seed, op.key(geometry_hash))`` and keeps the smallest
-    ``k``; the result is in canonical (key) order. O(n log n).
+    ``k``; the result is in canonical (key) order whatever the input order. O(n log n).
     """
-    if k is None or k >= len(ops):
-        return list(ops)
-    if k < 0:
+    if k is not None and k < 0:
         raise ValueError("k must be >= 0")
-    ranked = sorted(ops, key=lambda op: (derive_seed(root_seed, op.key(geometry_hash)), op.key(geometry_hash)))
-    chosen = ranked[:k]
-    return sorted(chosen, key=lambda op: op.key(geometry_hash))
+    keyed = [(op.key(geometry_hash), op) for op in ops]
+    if k is not None and k < len(keyed):
+        keyed.sort(key=lambda t: (derive_seed(root_seed, t[0]), t[0]))
+        keyed = keyed[:k]
+    keyed.sort(key=lambda t: t[0])
+    return [op for _, op in keyed]
 
 
 def operation_count(assembly: Assembly, mode: str = "all") -> int:

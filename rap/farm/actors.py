@@ -103,9 +103,10 @@ class SimWorker:
         """Where this worker runs (also a readiness probe)."""
         return {"node": self._node, "pid": self._pid}
 
-    def _functions(self):
+    def _functions(self, images: bool):
         if self._simulate is None:
             self._simulate = resolve(self._backend.simulate)
+        if images and self._render is None:
             self._render = resolve(self._backend.render)
         return self._simulate, self._render
 
@@ -122,7 +123,7 @@ class SimWorker:
 
     def run(self, task: SimTask) -> BatchResult:
         t0 = time.perf_counter()
-        simulate, render = self._functions()
+        simulate, render = self._functions(task.images)
         assembly = self._assembly(task)
         rows, sim_s, render_s = [], 0.0, 0.0
         for op, key, seed in zip(task.operations, task.keys, task.seeds):

@@ -76,7 +76,9 @@ def connect(address: str | None = None, num_cpus: int | None = None,
     except (ConnectionError, ValueError, RuntimeError, TimeoutError) as exc:
         where = address or "a local Ray instance"
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"cannot start or reach {where}: {msg}") from None
+        hint = (" (is the address right, and does RAY_AUTH_TOKEN or ~/.ray/auth_token hold the "
+                "cluster's token?)") if address else ""
+        raise InputError(f"cannot start or reach {where}: {msg}{hint}") from None
     except Exception as exc:  # ray.exceptions.AuthenticationError and friends
         if type(exc).__module__.startswith("ray"):
             msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

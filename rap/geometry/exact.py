@@ -197,8 +197,11 @@ def arc_interior_vector(s: Sequence[int] | None, e: Sequence[int] | None) -> IVe
 
 def unit(d: Sequence) -> tuple[float, float]:
     """Float unit vector of a nonzero exact vector (ints or Fractions)."""
-    x, y = float(d[0]), float(d[1])
-    n = math.hypot(x, y)
+    try:
+        x, y = float(d[0]), float(d[1])
+        n = math.hypot(x, y)
+    except OverflowError:
+        n = math.inf
     if n == 0.0 or not math.isfinite(n):  # huge or tiny exact values: normalise exactly first
         g = max(abs(Fraction(d[0])), abs(Fraction(d[1])))
         x, y = float(Fraction(d[0]) / g), float(Fraction(d[1]) / g)

@@ -27,6 +27,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from rap.errors import InputError
@@ -54,18 +55,23 @@ class Checkpoint:
     path: str = ""
 
 
-def _check_plain(value, where: str) -> None:
-    """Only plain containers may go into a checkpoint (so that weights_only loading accepts it)."""
+def _plain(value, where: str):
+    """``value`` as plain containers only (numpy scalars become Python numbers, tuples lists), so
+    that weights_only loading accepts it; anything else is a TypeError."""
     if isinstance(value, dict):
+        out = {}
         for k, v in value.items():
             if not isinstance(k, str):
                 raise TypeError(f"checkpoint {where}: key {k!r} is not a str")
-            _check_plain(v, f"{where}.{k}")
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            _check_plain(v, f"{where}[{i}]")
-    elif not isinstance(value, _PLAIN):
+            out[k] = _plain(v, f"{where}.{k}")
+        return out
+    if isinstance(value, (list, tuple)):
+        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if type(value) not in _PLAIN:
         raise TypeError(f"checkpoint {where}: {type(value).__name__} is not a plain value")
+    return value
 
 
 def save_checkpoint(path: str | Path, model: RobustnessCNN, *, threshold: float,
@@ -76,7 +82,7 @@ def save_checkpoint(path: str | Path, model: RobustnessCNN, *, threshold: float,
     meta = {"config": model.config.to_dict(), "threshold": float(threshold),
             "data_fingerprint": str(data_fingerprint), "assemblies": assemblies,
             "image_stats": image_stats, "metrics": metrics, "training": training}
-    _check_plain(meta, "metadata")
+    meta = _plain(meta, "metadata")
     blob = {"format": FORMAT, "format_version": FORMAT_VERSION, **meta,
             "state_dict": {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}}
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -98,15 +104,20 @@ def load_checkpoint(path: str | Path, device: str | torch.device = "cpu") -> Che
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such checkpoint file")
+    if not zipfile.is_zipfile(path):
+        raise InputError(f"{path}: not a readable checkpoint (corrupted or truncated: not a "
+                         f"torch zip archive)")
     try:
         blob = torch.load(path, map_location=device, weights_only=True)
     except pickle.UnpicklingError as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        if "weights only" in str(exc).lower() or "weights_only" in str(exc).lower():
+        lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+        if lines and "weights only" in lines[0].lower():
+            why = next((ln for ln in lines if "Unsupported" in ln), lines[-1])
             raise InputError(f"{path}: refused: the checkpoint holds objects other than tensors "
-                             f"and plain values ({first})") from None
-        raise InputError(f"{path}: not a readable checkpoint ({first})") from None
-    except (RuntimeError, EOFError, zipfile.BadZipFile, OSError, ValueError, KeyError) as exc:
+                             f"and plain values, which are not loaded ({why[:200]})") from None
+        first = lines[0] if lines else type(exc).__name__
+        raise InputError(f"{path}: not a readable checkpoint ({first[:200]})") from None
+    except Exception as exc:  # bytes from outside: whatever the reader trips over is bad input
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{path}: not a readable checkpoint (corrupted or truncated: "
                          f"{first[:200]})") from None

@@ -125,7 +125,7 @@ def train(root: str | Path, *, holdout: str | None = None, model_config: ModelCo
     device = resolve_device(config.device)
     t0 = time.perf_counter()
     with _Threads(config.num_threads), \
-            torch.random.fork_rng(devices=[device] if device.type == "cuda" else []):
+            torch.random.fork_rng(devices=[device.index or 0] if device.type == "cuda" else []):
         torch.manual_seed(config.seed)
         data = make_batches(sel, config.threshold, config.batch_size, config.max_memory_mb)
         counts = data.class_counts()
@@ -172,7 +172,7 @@ def train(root: str | Path, *, holdout: str | None = None, model_config: ModelCo
     training = {"config": config.to_dict(), "dataset": root, "holdout": holdout,
                 "class_counts": [int(c) for c in counts], "class_weights": weights,
                 "device": str(device), "seconds": time.perf_counter() - t0,
-                "code_version": __version__, "torch_version": torch.__version__}
+                "code_version": __version__, "torch_version": str(torch.__version__)}
     return TrainResult(model=model.cpu(), threshold=float(config.threshold),
                        data_fingerprint=data_fingerprint(sel),
                        assemblies=assembly_summary(sel, config.threshold), image_stats=stats,

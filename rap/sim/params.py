@@ -29,14 +29,15 @@ class SimParams:
     world_size: float = 100.0  # larger extent of the subassembly, world units
     start_gap: float = 0.1  # start clearance to the fixed bounding box, fraction of world_size
     density: float = 1.0e-3  # uniform density of the moving body (mass per world unit^2)
-    friction: float = 0.4  # Coulomb friction coefficient of every shape
+    friction: float = 0.3  # Coulomb friction coefficient of every shape
     elasticity: float = 0.0  # restitution of every shape
     poly_radius: float = 0.0  # pymunk polygon rounding radius (0: exact convex pieces)
     collision_slop: float = 0.05  # Chipmunk allowed penetration, world units
     iterations: int = 10  # Chipmunk solver iterations per step
 
     # --- time -------------------------------------------------------------------------------
-    dt_s: float = 1.0 / 120.0  # physics step = control period
+    dt_s: float = 1.0 / 120.0  # physics step
+    control_substeps: int = 1  # physics steps per control step (forces held; checks per control step)
     time_limit_s: float = 8.0  # a trial succeeds only if it reaches the goal within this time
 
     # --- controller (proportional feedback toward a carrot on the straight path) --------------
@@ -46,17 +47,17 @@ class SimParams:
     kd: float = 11.0  # 1/s: acceleration per unit of velocity
     kp_angle: float = 60.0  # 1/s^2: angular acceleration per radian of orientation error
     kd_angle: float = 16.0  # 1/s: angular acceleration per rad/s
-    max_accel: float = 2000.0  # cap of the commanded acceleration (before noise), world units/s^2
+    max_accel: float = 1000.0  # cap of the commanded acceleration (before noise), world units/s^2
     max_angular_accel: float = 200.0  # cap of the commanded angular acceleration, rad/s^2
 
     # --- success ------------------------------------------------------------------------------
-    pos_tol: float = 0.03  # success radius, fraction of the moving subassembly's extent
+    pos_tol: float = 0.05  # success radius, fraction of the moving subassembly's extent
     angle_tol_rad: float = 0.05
 
     # --- hopeless trials (part of the outcome's definition: decided failures) -------------------
-    far_off: float = 0.75  # distance from the path segment beyond which a trial fails, x world_size
-    stuck_s: float = 2.5  # a trial fails when its best distance to the goal has not improved ...
-    stuck_progress: float = 0.01  # ... by this fraction of world_size for stuck_s seconds
+    far_off: float = 1.5  # distance from the path segment beyond which a trial fails, x world_size
+    stuck_s: float = 0.0  # > 0: a trial fails when its best distance to the goal has not improved
+    stuck_progress: float = 0.01  # ... by this fraction of world_size for stuck_s seconds (0: off)
     retire: bool = True  # remove decided trials from the space (never changes the outcome)
 
     # --- layout of the trials in one space ------------------------------------------------------

@@ -1,16 +1,17 @@
 """Convex pieces of parts for the physics engine.
 
-A part (outer ring with holes) is triangulated exactly by ``rap.geometry.triangulate`` when that
-module is available, otherwise by shapely's constrained Delaunay triangulation (its triangles use
-the input vertices only, which are mapped back to the exact input points). Adjacent triangles are
-then merged greedily while their union stays convex, decided exactly on the ``Fraction``
-coordinates (Hertel-Mehlhorn style: at most 4x the minimum number of convex pieces), because fewer
-shapes make the simulation faster. The union of the pieces is the part exactly; conversion to
+A part (outer ring with holes) is cut into convex pieces exactly by
+``rap.geometry.triangulate.convex_pieces`` when that module is available. The local fallback
+triangulates with shapely's constrained Delaunay triangulation (its triangles use the input vertices
+only, which are mapped back to the exact input points) and merges adjacent triangles greedily while
+their union stays convex, decided exactly on the ``Fraction`` coordinates (Hertel-Mehlhorn: at most
+4x the minimum number of convex pieces). Fewer shapes make the simulation faster. The union of the pieces is the part exactly; conversion to
 floats happens only at the end.
 """
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 from functools import lru_cache
 
@@ -29,26 +30,19 @@ def _ccw(tri: tuple[Pt, ...]) -> tuple[Pt, ...]:
     return tri if _cross(*tri[:3]) > 0 else tuple(reversed(tri))
 
 
-def _geometry_triangles(part: Part):
-    """Triangles from rap.geometry.triangulate, or None when that module is absent/unknown."""
+def _geometry_pieces(part: Part):
+    """Convex pieces from ``rap.geometry.triangulate.convex_pieces`` (exact), or None if absent."""
     try:
-        from rap.geometry import triangulate as tri_mod  # noqa: PLC0415
+        from rap.geometry.triangulate import convex_pieces as geo_pieces  # noqa: PLC0415
     except ImportError:
         return None
-    for name in ("triangulate_part", "triangulate"):
-        fn = getattr(tri_mod, name, None)
-        if callable(fn):
-            try:
-                out = fn(part)
-            except TypeError:
-                continue
-            tris = []
-            for t in out:
-                pts = tuple((Fraction(x), Fraction(y)) for x, y in t)
-                if len(pts) >= 3 and _cross(*pts[:3]) != 0:
-                    tris.append(pts)
-            return tris
-    return None
+    den = 1
+    for ring in part.rings():
+        for x, y in ring:
+            den = math.lcm(den, x.denominator, y.denominator)
+    rings = [[(int(x * den), int(y * den)) for x, y in ring] for ring in part.rings()]
+    return [[(Fraction(x, den), Fraction(y, den)) for x, y in pc]
+            for pc in geo_pieces(rings[0], rings[1:])]
 
 
 def _shapely_triangles(part: Part) -> list[tuple[Pt, ...]]:
@@ -68,11 +62,8 @@ def _shapely_triangles(part: Part) -> list[tuple[Pt, ...]]:
 
 
 def triangles(part: Part) -> list[tuple[Pt, ...]]:
-    """CCW triangles covering ``part`` exactly (exact coordinates)."""
-    tris = _geometry_triangles(part)
-    if tris is None:
-        tris = _shapely_triangles(part)
-    return [_ccw(t) for t in tris]
+    """CCW triangles covering ``part`` exactly (exact coordinates; local shapely CDT)."""
+    return [_ccw(t) for t in _shapely_triangles(part)]
 
 
 def _is_convex(poly: list[Pt]) -> bool:
@@ -101,7 +92,18 @@ def _try_merge(a: list[Pt], b: list[Pt]) -> list[Pt] | None:
 
 
 def convex_pieces(part: Part) -> list[list[Pt]]:
-    """Convex CCW pieces (exact) whose union is ``part``; O(t^3) for t triangles (t is small)."""
+    """Convex CCW pieces (exact) whose union is ``part``.
+
+    ``rap.geometry.triangulate.convex_pieces`` when available; otherwise the local fallback (shapely
+    CDT + greedy exact merge, O(t^3) for t triangles, t small).
+    """
+    geo = _geometry_pieces(part)
+    if geo is not None:
+        return geo
+    return _fallback_pieces(part)
+
+
+def _fallback_pieces(part: Part) -> list[list[Pt]]:
     pieces = [list(t) for t in triangles(part)]
     merged = True
     while merged:

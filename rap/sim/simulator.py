@@ -40,9 +40,10 @@ from rap.sim.params import DEFAULT_PARAMS, SimParams
 from rap.sim.placement import placement
 from rap.sim.shapes import assembly_pieces
 
-__all__ = ["SimResult", "simulate", "Scene", "build_scene", "run_trials", "Trajectories"]
+__all__ = ["SimResult", "simulate", "Scene", "build_scene", "run_trials", "RunInfo", "Trajectories"]
 
-_NOISE_CHUNK = 128  # steps of noise drawn at once: one (chunk, trials) block, fixed order
+_NOISE_CHUNK = 128  # control steps of noise drawn at once: one (chunk, trials) block, fixed order
+_SLOW_CHECK = 8  # control steps between checks for hopeless (far off / stuck) trials
 _GET = (pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
         | pb.BodyFields.ANGULAR_VELOCITY)
 _GET_IDS = pb.BodyFields.BODY_ID | pb.BodyFields.POSITION
@@ -80,6 +81,7 @@ class Scene:
 
     space: pymunk.Space
     movers: list[pymunk.Body]
+    mover_ids: list[int]  # pymunk Body.id of each trial's moving body (batch BODY_ID values)
     statics: list[pymunk.Body]
     origins: np.ndarray  # [trials, 2] world position of each trial's frame
     start: np.ndarray  # [2] start position of the moving body (trial frame)
@@ -164,134 +166,194 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
     for st, ss in zip(statics, shapes_fixed):  # statics after all movers: rows 0..n-1 = trials
         space.add(st, *ss)
     m0 = movers[0]
-    return Scene(space=space, movers=movers, statics=statics, origins=origins, start=start,
+    return Scene(space=space, movers=movers, mover_ids=[b.id for b in movers], statics=statics, origins=origins, start=start,
                  goal=goal, direction=d, length=length, mass=m0.mass, moment=m0.moment,
                  scale=scale, center=(cx, cy), pivot_world=goal,
                  moving_extent=pl.moving_extent * scale, start_offset=pl.start_offset)
 
 
-def run_trials(scene: Scene, params: SimParams, rng: np.random.Generator,
-               record: int = 0, record_every: int = 1):
-    """Run the controller on every trial of ``scene``; returns (outcomes, body_steps, recording).
+@dataclass
+class RunInfo:
+    """What ``run_trials`` did: outcomes per trial (1 success, -1 failure) and its work."""
 
-    ``recording`` is ``None`` or ``(poses[record, frames, 3], decided_step[record])`` in world
-    coordinates of each trial's frame (position of the moving body, angle).
+    outcome: np.ndarray  # int8 [trials]
+    body_steps: int  # sum over physics steps of the moving bodies in the space
+    steps_run: int  # physics steps taken
+    schedule: list  # (physics step, trial indices removed before it)
+    recording: tuple | None  # (poses [record, frames, 3], decided frame [record]) or None
+    physics_s: float = 0.0  # time inside pymunk (set forces + step), when run with clock=True
+
+
+def run_trials(scene: Scene, params: SimParams, rng: np.random.Generator,
+               record: int = 0, record_every: int = 1, clock: bool = False) -> RunInfo:
+    """Run the controller on every trial of ``scene`` (consumed: bodies are removed from it).
+
+    The recording holds, for trials ``0..record-1``, the pose (position of the moving body in the
+    trial's frame, angle) every ``record_every`` control steps. ``clock`` measures the time spent
+    inside pymunk (the floor of the same run) into ``RunInfo.physics_s``.
     """
     space, n = scene.space, len(scene.movers)
     p = params
-    dt, steps = p.dt_s, p.steps
-    d = scene.direction
+    k_sub = p.control_substeps
+    dt = p.dt_s
+    n_ctrl = p.steps // k_sub
+    dx, dy = float(scene.direction[0]), float(scene.direction[1])
+    nx, ny = -dy, dx
     L = scene.length
     m, inertia = scene.mass, scene.moment
-    pos_tol = p.pos_tol * scene.moving_extent
-    far = p.far_off * p.world_size
-    stuck_steps = int(round(p.stuck_s / dt))
+    tol2 = (p.pos_tol * scene.moving_extent) ** 2
+    far2 = (p.far_off * p.world_size) ** 2
+    stuck_ctrl = int(round(p.stuck_s / (dt * k_sub))) if p.stuck_s > 0 else 0
     progress = p.stuck_progress * p.world_size
-    base = scene.origins + scene.start  # path start of every trial (world)
-    goal_rel = L * d  # goal relative to the path start
+    carrot_step = p.carrot_speed * dt * k_sub
+    lead = p.carrot_lead
+    eta = p.eta
+    kp, kd, amax2 = p.kp, p.kd, p.max_accel ** 2
+    alpha_max = p.max_angular_accel
+    ang_tol = p.angle_tol_rad
+
+    # One matmul maps the body state [x, y, angle, vx, vy, omega] to the path frame and to the
+    # linear part of the controller: Y = state @ M - C (C: per-row offsets of each trial's path).
+    # columns: s (along path from its start), w (left of the path), angle,
+    #          -kp s - kd v.d,  -kp w - kd v.n,  -kp_angle angle - kd_angle omega
+    M = np.zeros((6, 6))
+    M[0:2, 0] = (dx, dy)
+    M[0:2, 1] = (nx, ny)
+    M[2, 2] = 1.0
+    M[0:2, 3], M[3:5, 3] = (-kp * dx, -kp * dy), (-kd * dx, -kd * dy)
+    M[0:2, 4], M[3:5, 4] = (-kp * nx, -kp * ny), (-kd * nx, -kd * ny)
+    M[2, 5], M[5, 5] = -p.kp_angle, -p.kd_angle
+    to_world = m * np.array([[dx, dy], [nx, ny]])  # path-frame acceleration -> world force
+    flip = np.array([-1.0, 1.0])
 
     outcome = np.zeros(n, dtype=np.int8)  # 0 undecided, 1 success, -1 failure
+    # per-row state (row = position of the body in Chipmunk's body order = trial order at first)
+    rows = np.arange(n)
+    C = (scene.origins + scene.start) @ M[0:2]
     carrot = np.zeros(n)
+    live = np.ones(n, dtype=bool)
     best = np.full(n, np.inf)
     last_improve = np.zeros(n, dtype=np.int64)
-    rows = np.arange(n)  # trial index of each dynamic body row
-    n_bodies = len(space.bodies)
-    setbuf = np.zeros((n_bodies, 3))
+    acc = np.zeros((n, 2))
+
+    setbuf = np.zeros((len(space.bodies), 3))
     out = pb.Buffer()
     out.set_float_buf(setbuf)  # not copied: setbuf must stay alive and in place
     getbuf = pb.Buffer()
-    noise = None
+    chunk = noise = None
     body_steps = 0
-    rec = None
+    schedule = []
+    rec = rec_decided = None
     if record:
-        frames = steps // record_every + 1
+        frames = n_ctrl // record_every + 1
         rec = np.full((record, frames, 3), np.nan)
         rec_decided = np.full(record, frames - 1, dtype=np.int64)
-    removed = set()
-
-    for step in range(steps):
-        if p.eta > 0 and step % _NOISE_CHUNK == 0:
-            noise = rng.uniform(-p.eta, p.eta, size=(_NOISE_CHUNK, n))
+    n_removed = 0
+    na = n
+    c = 0
+    t_phys = 0.0
+    for c in range(n_ctrl):
+        if eta > 0 and c % _NOISE_CHUNK == 0:
+            # one block over ALL trials in a fixed order: independent of retirement
+            chunk = rng.uniform(-eta, eta, size=(_NOISE_CHUNK, n))
+            noise = chunk[:, rows]
         getbuf.clear()
         pb.get_space_bodies(space, _GET, getbuf)
-        na = len(rows)
         st = np.frombuffer(getbuf.float_buf(), dtype=np.float64).reshape(-1, 6)[:na]
-        x = st[:, 0:2] - base[rows]
-        ang = np.remainder(st[:, 2] + math.pi, 2 * math.pi) - math.pi
-        vel = st[:, 3:5]
-
-        if rec is not None and step % record_every == 0:
+        Y = st @ M
+        Y -= C
+        s, w, ang = Y[:, 0], Y[:, 1], Y[:, 2]
+        aang = np.abs(ang)
+        if aang.max() > math.pi:  # wrap the orientation error to (-pi, pi]
+            wrapped = np.remainder(ang + math.pi, 2 * math.pi) - math.pi
+            Y[:, 5] += p.kp_angle * (ang - wrapped)
+            ang = wrapped
+            aang = np.abs(ang)
+        if rec is not None and c % record_every == 0:
             sel = rows < record
-            f = step // record_every
-            rec[rows[sel], f, 0:2] = x[sel] + scene.start
+            f = c // record_every
+            rec[rows[sel], f, 0] = scene.start[0] + s[sel] * dx + w[sel] * nx
+            rec[rows[sel], f, 1] = scene.start[1] + s[sel] * dy + w[sel] * ny
             rec[rows[sel], f, 2] = st[sel, 2]
 
-        # --- outcomes at this control step ---------------------------------------------
-        s_proj = x @ d
-        e_goal = goal_rel - x
-        dist = np.sqrt(np.einsum("ij,ij->i", e_goal, e_goal))
-        live = outcome[rows] == 0
-        succ = live & (dist < pos_tol) & (np.abs(ang) < p.angle_tol_rad)
-        sc = np.clip(s_proj, 0.0, L)
-        off = x - sc[:, None] * d
-        off_d = np.sqrt(np.einsum("ij,ij->i", off, off))
-        r = rows
-        improved = dist < best[r] - progress
-        best[r] = np.where(improved, dist, best[r])
-        last_improve[r] = np.where(improved, step, last_improve[r])
-        fail = live & ~succ & ((off_d > far) | (step - last_improve[r] > stuck_steps))
-        # --- controller (for every current row, decided ones included) ------------------
-        carrot[r] = np.minimum(np.minimum(carrot[r] + p.carrot_speed * dt, s_proj + p.carrot_lead), L)
-        acc = p.kp * (carrot[r][:, None] * d - x) - p.kd * vel
-        amag = np.sqrt(np.einsum("ij,ij->i", acc, acc))
-        over = amag > p.max_accel
-        if over.any():
-            acc[over] *= (p.max_accel / amag[over])[:, None]
-        ctrl = np.empty((na, 3))
-        ctrl[:, 0:2] = acc
-        ctrl[:, 0:2] *= m
-        if p.eta > 0:
-            u = noise[step % _NOISE_CHUNK, r]
-            ctrl[:, 0] -= u * acc[:, 1] * m
-            ctrl[:, 1] += u * acc[:, 0] * m
-        ctrl[:, 2] = np.clip(-p.kp_angle * ang - p.kd_angle * st[:, 5],
-                             -p.max_angular_accel, p.max_angular_accel) * inertia
+        # --- outcomes at this control step --------------------------------------------------
+        e = s - L
+        succ = ((e * e + w * w) < tol2) & (aang < ang_tol) & live
+        decided = succ
+        fail = None
+        if c % _SLOW_CHECK == 0:  # hopeless trials: far off the path (or stuck, when enabled)
+            beyond = np.maximum(np.maximum(-s, e), 0.0)
+            fail = ((w * w + beyond * beyond) > far2) & live & ~succ
+            if stuck_ctrl:
+                dist = np.sqrt(e * e + w * w)
+                improved = dist < best - progress
+                best = np.where(improved, dist, best)
+                last_improve = np.where(improved, c, last_improve)
+                fail |= (c - last_improve > stuck_ctrl) & live & ~succ
+            decided = succ | fail
 
-        if succ.any() or fail.any():
-            outcome[r[succ]] = 1
-            outcome[r[fail]] = -1
-            decided = r[succ | fail]
+        # --- controller (every current row, decided ones included) -------------------------
+        carrot = np.minimum(np.minimum(carrot + carrot_step, s + lead), L)
+        acc[:na, 0] = Y[:, 3] + kp * carrot
+        acc[:na, 1] = Y[:, 4]
+        a = acc[:na]
+        a2 = a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1]
+        if a2.max() > amax2:
+            a = a * np.sqrt(np.minimum(amax2 / np.maximum(a2, 1e-300), 1.0))[:, None]
+        if eta > 0:  # + u |F| along the normal of F: (ax, ay) + u (-ay, ax)
+            a = a + noise[c % _NOISE_CHUNK][:, None] * (a[:, ::-1] * flip)
+        ctrl = np.empty((na, 3))
+        np.matmul(a, to_world, out=ctrl[:, 0:2])
+        np.multiply(np.minimum(np.maximum(Y[:, 5], -alpha_max), alpha_max), inertia, out=ctrl[:, 2])
+
+        if decided.any():
+            outcome[rows[succ]] = 1
+            if fail is not None:
+                outcome[rows[fail]] = -1
+            live &= ~decided
             if rec is not None:
-                for k in decided[decided < record]:
-                    rec_decided[k] = step // record_every
+                for t in rows[decided]:
+                    if t < record:
+                        rec_decided[t] = c // record_every
             if p.retire:
-                for k in decided:
-                    removed.add(int(k))
-                    space.remove(scene.movers[k], *scene.movers[k].shapes,
-                                 scene.statics[k], *scene.statics[k].shapes)
-                if len(removed) == n:
+                gone = rows[decided]
+                for t in gone:
+                    mv, fx = scene.movers[t], scene.statics[t]
+                    space.remove(mv, *mv.shapes, fx, *fx.shapes)
+                n_removed += len(gone)
+                schedule.append((c * k_sub, [int(t) for t in gone]))
+                if n_removed == n:
                     break
                 # rows follow Chipmunk's swap-remove order: read the body ids back
                 getbuf.clear()
                 pb.get_space_bodies(space, _GET_IDS, getbuf)
                 ids = np.frombuffer(getbuf.int_buf(), dtype=np.uintp)
-                old_pos = {scene.movers[k].id: j for j, k in enumerate(r)}
-                na = n - len(removed)
-                where = np.array([old_pos[i] for i in ids[:na]], dtype=np.int64)
-                rows = r[where]
-                ctrl = ctrl[where]
+                na = n - n_removed
+                old_pos = {scene.mover_ids[t]: j for j, t in enumerate(rows)}
+                where = np.array([old_pos[i] for i in ids[:na].tolist()], dtype=np.int64)
+                rows, C, carrot, live = rows[where], C[where], carrot[where], live[where]
+                best, last_improve, ctrl = best[where], last_improve[where], ctrl[where]
+                if noise is not None:
+                    noise = chunk[:, rows]
                 setbuf = np.zeros((len(ids), 3))
                 out.set_float_buf(setbuf)
-            elif (outcome != 0).all():
+            elif not live.any():
                 break
 
         setbuf[:na] = ctrl
-        pb.set_space_bodies(space, _SET, out)
-        space.step(dt)
-        body_steps += na
+        if clock:
+            t_phys -= time.perf_counter()
+        for _ in range(k_sub):
+            pb.set_space_bodies(space, _SET, out)
+            space.step(dt)
+        if clock:
+            t_phys += time.perf_counter()
+        body_steps += na * k_sub
 
+    outcome[outcome == 0] = -1
     recording = (rec, rec_decided) if rec is not None else None
-    return outcome, body_steps, recording
+    return RunInfo(outcome=outcome, body_steps=body_steps, steps_run=(c + 1) * k_sub,
+                   schedule=schedule, recording=recording, physics_s=t_phys)
 
 
 def simulate(assembly: Assembly, operation: Operation, params: SimParams | None = None,
@@ -306,8 +368,9 @@ def simulate(assembly: Assembly, operation: Operation, params: SimParams | None 
     p = params if params is not None else DEFAULT_PARAMS
     t0 = time.perf_counter()
     scene = build_scene(assembly, operation, p)
-    outcome, body_steps, _ = run_trials(scene, p, rng)
+    info = run_trials(scene, p, rng)
+    outcome = info.outcome
     succ = int((outcome == 1).sum())
     return SimResult(successes=succ, trials=p.trials, score=succ / p.trials,
                      seconds=time.perf_counter() - t0,
-                     outcomes=tuple(int(o == 1) for o in outcome), body_steps=body_steps)
+                     outcomes=tuple(int(o == 1) for o in outcome), body_steps=info.body_steps)

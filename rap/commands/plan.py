@@ -1,0 +1,237 @@
+"""``rap-farm plan``: a robust assembly sequence for one assembly (RAP, sim, optimal or random).
+
+By default the plan is served by a planning actor on Ray (``rap.farm.service``): it holds the CNN
+and sends simulator work to a pool of simulation actors (the local Ray on a laptop; ``--address``
+joins a cluster). ``--no-ray`` plans in this process. Exit status 0 with a plan, 1 when the
+assembly is interlocked (no sequence of one-step translations exists), 2 for invalid input.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import typer
+
+from rap.errors import EXIT_INFEASIBLE, InputError, RapError
+
+__all__ = ["register", "plan_command", "InfeasiblePlan", "default_model_path", "print_result",
+           "write_plan_json", "resolve_model"]
+
+METHODS = ("rap", "sim", "optimal", "random")
+
+
+class InfeasiblePlan(RapError):
+    """No assembly sequence exists (an interlocked subassembly). Exit status 1."""
+
+    exit_code = EXIT_INFEASIBLE
+
+
+def default_model_path() -> Path:
+    """The model shipped with the package: ``rap/data/default_model.pt``."""
+    import rap
+
+    return Path(rap.__file__).resolve().parent / "data" / "default_model.pt"
+
+
+def resolve_model(model: Path | None, method: str, echo) -> tuple[str | None, str]:
+    """(checkpoint path or None, method to use). Without ``--model`` the shipped default model is
+    used; when it is absent, say so and fall back to the simulator-only method."""
+    if method != "rap":
+        return None, method
+    if model is not None:
+        if not Path(model).is_file():
+            raise InputError(f"--model {model}: no such checkpoint file")
+        return str(model), method
+    default = default_model_path()
+    if default.is_file():
+        return str(default), method
+    echo(f"note: no --model given and no default model is shipped ({default} is missing; the "
+         f"project trains it with `rap-farm train DATASET --out {default}`). Planning with "
+         f"--method sim (simulator only) instead; pass --model PATH to use RAP's CNN.")
+    return None, "sim"
+
+
+def write_plan_json(result, path: Path) -> Path:
+    """Write ``result.to_json()`` atomically (temporary file + rename)."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=path.parent)
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(result.to_json(), fh, indent=2)
+            fh.write("\n")
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise InputError(f"--out {path}: cannot write ({exc.strerror or exc})") from None
+    return path
+
+
+def print_result(console, result, *, wall_s: float | None = None, title: str | None = None,
+                 ray: bool = False) -> None:
+    """The sequence as a rich table, R and timings."""
+    from rich.table import Table
+
+    from rap.plan.result import PlanStatus
+
+    if result.status is not PlanStatus.FOUND:
+        console.print(f"[bold red]{result.status.value}[/]: {result.message}")
+        return
+    table = Table(title=title or f"{result.assembly}: {result.method} plan "
+                                 f"({len(result.steps)} steps, assembly order)")
+    for col, kw in (("step", {"justify": "right"}), ("moving", {"overflow": "fold"}), ("fixed", {"overflow": "fold"}),
+                    ("direction", {"no_wrap": True}), ("score", {"justify": "right"}), ("chosen by", {}),
+                    ("P(high)", {"justify": "right"})):
+        table.add_column(col, **kw)
+    for i, s in enumerate(result.steps, 1):
+        bad = s.score is not None and s.score < 0.95
+        score = "?" if s.score is None else f"{s.score:.3f}"
+        table.add_row(str(i), ",".join(s.moving), ",".join(s.fixed),
+                      f"({s.direction[0] + 0.0:+.3f},{s.direction[1] + 0.0:+.3f})",
+                      f"[red]{score}[/]" if bad else score, s.source,
+                      "" if s.confidence is None else f"{s.confidence:.3f}")
+    console.print(table)
+    st = result.stats
+    line = f"robustness R = {result.robustness:.4f} (product of the simulator's step scores)"
+    if result.method == "random" and "mean_robustness" in st:
+        line += (f"; mean over {st['samples']} random sequences = {st['mean_robustness']:.4f} "
+                 f"(shown: the sample closest to the mean)")
+    console.print(line)
+    parts = [f"planning {result.seconds:.2f} s", f"evaluation {result.eval_seconds:.2f} s"]
+    if wall_s is not None:
+        parts.append(f"wall {wall_s:.2f} s" + (" (Ray start-up included)" if ray else ""))
+    console.print("time: " + ", ".join(parts))
+    facts = [f"{st.get('sim_run', 0)} simulations run", f"{st.get('cache_hits', 0)} cached scores used"]
+    if st.get("cnn_batches"):
+        facts.append(f"{st['cnn_ops']} CNN scores in {st['cnn_batches']} batches")
+    if result.method == "rap":
+        facts.append(f"simulator fallbacks: {st.get('fallbacks', 0)} of {st.get('decisions', 0)} "
+                     f"decisions")
+    if result.method == "optimal":
+        facts.append(f"DP over {st['subassemblies']} subassemblies / {st['operations']} operations "
+                     f"vs. {st['exhaustive_sequences']:,} sequences for an exhaustive search "
+                     f"({st['dp_speedup']:.0f}x fewer step evaluations)")
+    console.print("; ".join(facts))
+
+
+def _check_suffix(path: Path | None, option: str, suffixes: tuple[str, ...]) -> None:
+    if path is not None and Path(path).suffix.lower() not in suffixes:
+        raise InputError(f"{option} {path}: must end in {' or '.join(suffixes)}")
+
+
+def plan_command(
+    assembly: Path = typer.Argument(..., help="Assembly JSON file."),
+    model: Path = typer.Option(None, "--model", help="CNN checkpoint [default: the shipped model]."),
+    method: str = typer.Option("rap", "--method", help="rap | sim | optimal | random."),
+    out: Path = typer.Option(None, "--out", "-o", help="Write the plan as JSON here."),
+    picture: Path = typer.Option(None, "--picture", help="Storyboard of the plan (.png or .svg)."),
+    address: str = typer.Option(None, "--address", help="Join this Ray cluster (HOST:PORT or auto)."),
+    seed: int = typer.Option(None, "--seed", help="Root seed of the simulator's randomness."),
+    trials: int = typer.Option(100, "--trials", min=1, help="Simulator trials per operation."),
+    no_ray: bool = typer.Option(False, "--no-ray", help="Plan in this process, without Ray."),
+    space: str = typer.Option("online", "--space",
+                              help="online (one partition per NDBG cell, as RAP) | all."),
+    cache: Path = typer.Option(None, "--cache", help="Score cache file [default: "
+                               "~/.cache/rap-farm/scores.json or $RAP_CACHE]."),
+    no_cache: bool = typer.Option(False, "--no-cache", help="Neither read nor write a cache file."),
+    samples: int = typer.Option(50, "--samples", min=1, help="Random sequences (method random)."),
+    workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors [default: all CPUs]."),
+):
+    """Plan a robust assembly sequence and print it (step, parts, direction, score, source)."""
+    from rich.console import Console
+
+    from rap.assembly import load_assembly
+    from rap.plan.cache import ScoreCache, default_cache_path
+    from rap.plan.result import PlanStatus
+    from rap.seeds import DEFAULT_ROOT_SEED
+    from rap.sim.params import SimParams
+
+    console = Console()
+    err = Console(stderr=True)
+    if method not in METHODS:
+        raise InputError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
+    if space not in ("online", "all"):
+        raise InputError(f"--space {space!r}: choose online or all")
+    _check_suffix(out, "--out", (".json",))
+    _check_suffix(picture, "--picture", (".png", ".svg"))
+    if no_ray and address:
+        raise InputError("--no-ray and --address exclude each other")
+    asm = load_assembly(assembly)
+    root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
+    params = SimParams(trials=trials)
+    model_path, method = resolve_model(model, method, lambda s: err.print(s))
+    cache_path = None if no_cache else (cache or default_cache_path())
+
+    if model_path is not None:
+        _familiarity(asm, model_path, space, err)
+
+    t0 = time.perf_counter()
+    if no_ray:
+        from rap.plan.planners import make_planner
+        from rap.plan.problem import PlanningProblem
+        from rap.plan.scorers import LocalSimulator, PredictorCnn, Scorer
+
+        cache_obj = ScoreCache(cache_path)
+        scorer = Scorer(LocalSimulator(), PredictorCnn.load(model_path) if model_path else None,
+                        cache_obj)
+        problem = PlanningProblem(asm, params, root_seed, space)
+        result = make_planner(method, samples=samples).solve(problem, scorer)
+        cache_obj.flush()
+    else:
+        import rap.farm.service as service
+
+        req = service.PlanRequest(asm, method, params, root_seed, space, samples)
+        with console.status(f"planning {asm.name} with {method} on Ray"
+                            + (f" at {address}" if address else " (local)") + " ..."):
+            result = service.run_plan(req, model_path=model_path, address=address,
+                                      workers=workers,
+                                      cache_path=str(cache_path) if cache_path else None)
+    wall = time.perf_counter() - t0
+
+    if result.status is PlanStatus.INFEASIBLE:
+        if out is not None:
+            write_plan_json(result, out)
+            err.print(f"wrote {out}")
+        raise InfeasiblePlan(result.message)
+    if result.status is not PlanStatus.FOUND:
+        raise InfeasiblePlan(f"no plan: {result.message}")
+    print_result(console, result, wall_s=wall, ray=not no_ray)
+    if out is not None:
+        console.print(f"plan written to {write_plan_json(result, out)}")
+    if picture is not None:
+        from rap.render.pictures import storyboard
+
+        path = storyboard(asm, result.steps, picture,
+                          title=f"{asm.name}: {result.method}, R = {result.robustness:.3f}")
+        console.print(f"storyboard written to {path}")
+    if cache_path is not None:
+        console.print(f"score cache: {cache_path}", style="dim")
+
+
+def _familiarity(asm, model_path: str, space: str, err) -> None:
+    """Warn when ``asm`` is far from what the model was trained on (checkpoint metadata)."""
+    try:
+        from rap.model.checkpoint import load_checkpoint
+        from rap.plan.problem import PlanningProblem
+        from rap.plan.scorers import PredictorCnn, model_familiarity
+        from rap.sim.params import SimParams
+
+        ck = load_checkpoint(model_path)
+        problem = PlanningProblem(asm, SimParams(), space=space)
+        ops = list(problem.candidates(problem.whole))
+        images = PredictorCnn(None).images(problem, ops)
+        notes = model_familiarity({"assemblies": ck.assemblies, "image_stats": ck.image_stats},
+                                  asm.geometry_hash, images)
+    except RapError:
+        raise
+    except Exception as exc:  # a failed check must not stop planning
+        notes = [f"could not compare the assembly with the model's training data ({exc})"]
+    for n in notes:
+        err.print(f"[yellow]warning:[/] {n}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("plan")(plan_command)

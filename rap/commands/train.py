@@ -1,0 +1,80 @@
+"""``rap-farm train``: train the robustness CNN on a labelled dataset and save a checkpoint."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+__all__ = ["register", "train_command"]
+
+
+def progress_bar(console=None):
+    """A rich progress bar and an ``on_step`` callback that advances it (loss, accuracy shown)."""
+    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                               TimeElapsedColumn, TimeRemainingColumn)
+
+    bar = Progress(TextColumn("epoch {task.fields[epoch]}"), BarColumn(), MofNCompleteColumn(),
+                   TextColumn("loss {task.fields[loss]:.4f}  acc {task.fields[acc]:.3f}"),
+                   TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=False)
+    state = {}
+
+    def on_step(ev: dict) -> None:
+        total = ev["steps"] * ev["epochs"]
+        if "task" not in state:
+            state["task"] = bar.add_task("train", total=total, epoch="", loss=0.0, acc=0.0)
+        bar.update(state["task"], completed=(ev["epoch"] - 1) * ev["steps"] + ev["step"],
+                   epoch=f"{ev['epoch']}/{ev['epochs']}", loss=ev["loss"], acc=ev["accuracy"])
+
+    return bar, on_step
+
+
+def train_command(
+    dataset: Path = typer.Argument(..., help="Dataset directory written by `rap-farm label`."),
+    out: Path = typer.Option(None, "--out", "-o",
+                             help="Checkpoint to write [default: models/<dataset name>.pt]."),
+    holdout: str = typer.Option(None, "--holdout",
+                                help="Leave this assembly out of training and report metrics on it."),
+    epochs: int = typer.Option(8, "--epochs", min=1, help="Passes over the training rows."),
+    device: str = typer.Option("auto", "--device", help="auto (CUDA when present), cpu or cuda."),
+    seed: int = typer.Option(0, "--seed", help="Seed of initialisation, dropout and shuffling."),
+    batch_size: int = typer.Option(64, "--batch-size", min=1),
+    threshold: float = typer.Option(0.95, "--threshold",
+                                    help="A score >= threshold is the class 'high'."),
+    threads: int = typer.Option(0, "--threads", min=0,
+                                help="torch CPU threads (0: torch's default)."),
+):
+    """Train the robustness CNN (class-weighted cross-entropy, Adam) and save a checkpoint."""
+    from rich.console import Console
+
+    from rap.model.cnn import ModelConfig, RobustnessCNN
+    from rap.model.train import TrainConfig, train
+
+    out = out or Path("models") / f"{Path(dataset).resolve().name}.pt"
+    config = TrainConfig(epochs=epochs, batch_size=batch_size, seed=seed, device=device,
+                         threshold=threshold, num_threads=threads)
+    model_config = ModelConfig()
+    console = Console(stderr=True)
+    bar, on_step = progress_bar(console)
+    with bar:
+        result = train(dataset, holdout=holdout, model_config=model_config, config=config,
+                       on_step=on_step)
+    path = result.save(out)
+    tr = result.metrics["train"]
+    t = result.training
+    typer.echo(f"robustness CNN: {RobustnessCNN(model_config).num_parameters():,} parameters, "
+               f"channels {list(model_config.channels)}, hidden {list(model_config.hidden)}")
+    typer.echo(f"trained on {tr['rows']} rows ({tr['high_rows']} high; class weights "
+               f"{t['class_weights'][0]:.2f}/{t['class_weights'][1]:.2f}) on {t['device']}: "
+               f"{tr['samples_per_s']:.0f} samples/s, {t['seconds']:.1f} s")
+    if "holdout" in result.metrics:
+        h = result.metrics["holdout"]
+        pct = lambda x: "–" if x != x else f"{100 * x:.1f}%"  # noqa: E731 (NaN: empty class)
+        typer.echo(f"holdout {h['assembly']}: accuracy {pct(h['accuracy'])}, low robustness "
+                   f"{pct(h['low_accuracy'])}, high robustness {pct(h['high_accuracy'])}, "
+                   f"ECE {pct(h['ece'])} ({h['rows']} rows, {h['high_rows']} high)")
+    typer.echo(f"wrote {path}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("train")(train_command)

@@ -1,0 +1,391 @@
+"""The labelling driver behind ``rap-farm label``: enumerate, skip what is done, label, stream to disk.
+
+``run_label(LabelConfig(...))``:
+
+1. checks every input before any work (assembly files and geometry, options, the output directory
+   and, when it already holds a dataset, that it was written with the same root seed, simulator
+   parameters and assembly geometry) and raises ``InputError`` with one line otherwise; nothing
+   existing is modified when a check fails;
+2. enumerates every reachable subassembly's distinct partitions of every assembly
+   (``rap.enumerate``), optionally a seeded subset per assembly, and drops the operations whose key
+   is already in the dataset (resume);
+3. starts or joins Ray (``rap.farm.runtime.connect``), fans the rest out to a ``SimPool`` with
+   bounded in-flight batches, and commits rows atomically (``rap.dataset.write_shard``) every
+   ``flush_rows`` rows or ``flush_seconds`` seconds; rows are never all held in memory;
+4. de-duplicates by key (a retried batch can never add a row twice) and returns a ``LabelSummary``.
+
+An interruption (Ctrl-C, SIGTERM from ``ray job stop``) commits the rows already received and
+re-raises; SIGKILL loses at most the rows of the last ``flush_rows``/``flush_seconds``. A rerun of the
+same command completes the dataset to exactly the rows of an uninterrupted run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import os
+import signal
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator, Sequence
+
+from rap.assembly import Assembly, load_assembly
+from rap.dataset import (METADATA_FILE, SCHEMA_VERSION, DatasetMeta, clean_partial_files,
+                         open_dataset, read_meta, rows_to_table, write_meta, write_shard)
+from rap.enumerate import MODES, enumerate_operations, label_key, label_seed, sample_operations
+from rap.errors import InputError
+from rap.operation import Operation
+
+from rap.farm.actors import Backend, resolve
+from rap.farm.pool import Job, SimPool, params_json
+from rap.farm.runtime import connect
+
+__all__ = ["PRESETS", "LabelConfig", "LabelPlan", "LabelSummary", "prepare", "run_label",
+           "format_summary"]
+
+# name -> (trials, max operations per assembly); see datasets/README.md for the sizes and times.
+PRESETS: dict[str, tuple[int, int | None]] = {
+    "tiny": (20, 12),
+    "default": (100, 400),
+    "full": (100, None),
+}
+
+HIST_BINS = 10
+
+
+@dataclass(frozen=True)
+class LabelConfig:
+    """Everything ``rap-farm label`` takes. ``backend`` names the simulator/renderer/params."""
+
+    assemblies: tuple[str, ...]
+    out: str
+    address: str | None = None
+    workers: int | None = None
+    trials: int = 100
+    seed: int = 0
+    max_ops_per_assembly: int | None = None
+    mode: str = "all"
+    flush_rows: int = 512
+    flush_seconds: float = 30.0
+    batch_size: int | None = None
+    num_cpus: int | None = None  # embedded Ray only: CPUs to start it with (default: all)
+    backend: Backend = Backend()
+    params_factory: str = "rap.sim.params:SimParams"
+    progress: bool = True
+    command: str = "rap-farm label"
+
+
+@dataclass
+class LabelPlan:
+    """What ``prepare`` found: the work left to do, checked and ready."""
+
+    config: LabelConfig
+    assemblies: list[Assembly]
+    params: Any
+    ops: dict[str, list[Operation]]  # assembly name -> selected operations
+    todo: dict[str, list[Operation]]  # assembly name -> operations not in the dataset yet
+    existing: int
+    total: int
+    new_dataset: bool
+
+    @property
+    def todo_count(self) -> int:
+        return sum(len(v) for v in self.todo.values())
+
+
+@dataclass
+class LabelSummary:
+    out: str
+    total: int = 0  # operations selected
+    existing: int = 0  # already in the dataset before this run
+    labelled: int = 0  # rows committed by this run
+    duplicates: int = 0  # results dropped because their key was already written
+    shards: int = 0
+    seconds: float = 0.0
+    workers: int = 0
+    nodes: dict[str, int] = field(default_factory=dict)
+    per_assembly: dict[str, int] = field(default_factory=dict)
+    hist: list[int] = field(default_factory=lambda: [0] * HIST_BINS)
+    resubmitted: int = 0
+    sim_s: float = 0.0
+    task_s: float = 0.0
+    interrupted: bool = False
+
+    @property
+    def rate(self) -> float:
+        return self.labelled / self.seconds if self.seconds > 0 else 0.0
+
+
+# -- checks -------------------------------------------------------------------------------------
+def _check_out_dir(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: exists and is not a directory")
+    if out.is_dir() and not (out / METADATA_FILE).exists():
+        if any(p for p in out.iterdir()):
+            raise InputError(f"--out {out}: directory is not empty and holds no rap-farm dataset "
+                             f"({METADATA_FILE} missing); choose a new or empty directory")
+    # Writable? Probe in the nearest existing ancestor without creating anything in the dataset.
+    probe_dir = out
+    while not probe_dir.exists():
+        if probe_dir.parent == probe_dir:
+            break
+        probe_dir = probe_dir.parent
+    if not probe_dir.is_dir():
+        raise InputError(f"--out {out}: {probe_dir} is not a directory")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".rapfarm-probe-", dir=probe_dir)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise InputError(f"--out {out}: not writable ({exc.strerror or exc})") from None
+
+
+def _diff(a: dict, b: dict) -> str:
+    keys = sorted(set(a) | set(b))
+    bad = [k for k in keys if a.get(k) != b.get(k)]
+    return ", ".join(f"{k} {a.get(k)!r} != {b.get(k)!r}" for k in bad[:3]) + (" ..." if len(bad) > 3 else "")
+
+
+def _check_meta(out: Path, root_seed: int, params: Any) -> bool:
+    """True when ``out`` holds no dataset yet; raises when it holds an incompatible one."""
+    meta = read_meta(out)
+    if meta is None:
+        return True
+    if meta.schema_version != SCHEMA_VERSION:
+        raise InputError(f"--out {out}: dataset schema version {meta.schema_version}, this code "
+                         f"writes {SCHEMA_VERSION}; choose another --out")
+    if int(meta.root_seed) != int(root_seed):
+        raise InputError(f"--out {out}: dataset was labelled with --seed {meta.root_seed}, not "
+                         f"{root_seed}; rerun with --seed {meta.root_seed} or choose another --out")
+    want = json.loads(json.dumps(params.to_dict()))
+    if meta.params != want:
+        raise InputError(f"--out {out}: dataset was labelled with other simulator parameters "
+                         f"({_diff(meta.params, want)}); choose another --out")
+    return False
+
+
+def _check_geometry(out: Path, assemblies: Sequence[Assembly]) -> None:
+    if not any(out.glob("*/part-*.parquet")):
+        return
+    import pyarrow.compute as pc
+
+    t = open_dataset(out).to_table(columns=["assembly", "geometry_hash"])
+    pairs = pc.unique(pc.binary_join_element_wise(t["assembly"], t["geometry_hash"], "\0")).to_pylist()
+    stored: dict[str, set[str]] = {}
+    for s in pairs:
+        name, gh = s.split("\0")
+        stored.setdefault(name, set()).add(gh)
+    for a in assemblies:
+        other = stored.get(a.name, set()) - {a.geometry_hash}
+        if other:
+            raise InputError(f"--out {out}: assembly {a.name!r} in the dataset has other geometry "
+                             f"({sorted(other)[0]} != {a.geometry_hash}); was {a.source} changed? "
+                             f"choose another --out")
+
+
+def _existing_keys_by_assembly(out: Path) -> set[str]:
+    if not any(out.glob("*/part-*.parquet")):
+        return set()
+    return set(open_dataset(out).to_table(columns=["key"]).column("key").to_pylist())
+
+
+def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) -> LabelPlan:
+    """Check every input and work out what is left to label. Raises ``InputError``; writes nothing."""
+    if not cfg.assemblies:
+        raise InputError("no assembly given")
+    if cfg.trials < 1:
+        raise InputError(f"--trials must be >= 1, not {cfg.trials}")
+    if cfg.workers is not None and cfg.workers < 1:
+        raise InputError(f"--workers must be >= 1, not {cfg.workers}")
+    if cfg.max_ops_per_assembly is not None and cfg.max_ops_per_assembly < 1:
+        raise InputError(f"--max-ops-per-assembly must be >= 1, not {cfg.max_ops_per_assembly}")
+    if cfg.mode not in MODES:
+        raise InputError(f"--mode must be one of {', '.join(MODES)}, not {cfg.mode!r}")
+    if not (0 <= int(cfg.seed) < 2 ** 63):
+        raise InputError(f"--seed must be in [0, 2**63), not {cfg.seed}")
+    if cfg.flush_rows < 1 or cfg.flush_seconds <= 0:
+        raise InputError("flush_rows must be >= 1 and flush_seconds > 0")
+
+    assemblies: list[Assembly] = []
+    names: dict[str, str] = {}
+    for path in cfg.assemblies:
+        a = load_assembly(path)  # AssemblyError (an InputError): missing file, invalid geometry
+        if a.name in names:
+            if a.geometry_hash == names[a.name]:
+                continue  # the same assembly twice
+            raise InputError(f"{path}: assembly name {a.name!r} is used by another assembly "
+                             f"with different geometry in this command")
+        names[a.name] = a.geometry_hash
+        assemblies.append(a)
+
+    out = Path(cfg.out)
+    _check_out_dir(out)
+    params_cls = resolve(cfg.params_factory)
+    try:
+        params = params_cls(trials=int(cfg.trials))
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"invalid simulator parameters: {exc}") from None
+    new = _check_meta(out, cfg.seed, params)
+    _check_geometry(out, assemblies)
+    existing = _existing_keys_by_assembly(out)
+
+    fp = params.fingerprint()
+    ops: dict[str, list[Operation]] = {}
+    todo: dict[str, list[Operation]] = {}
+    n_existing = 0
+    for a in assemblies:
+        status(f"enumerating {a.name}")
+        all_ops = enumerate_operations(a, cfg.mode)
+        chosen = sample_operations(all_ops, cfg.max_ops_per_assembly, cfg.seed, a.geometry_hash)
+        ops[a.name] = chosen
+        left = [op for op in chosen if label_key(op, a.geometry_hash, fp, cfg.seed) not in existing]
+        n_existing += len(chosen) - len(left)
+        todo[a.name] = left
+    return LabelPlan(config=cfg, assemblies=assemblies, params=params, ops=ops, todo=todo,
+                     existing=n_existing, total=sum(len(v) for v in ops.values()), new_dataset=new)
+
+
+# -- running ------------------------------------------------------------------------------------
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """``ray job stop`` and schedulers send SIGTERM: treat it like Ctrl-C (commit, then stop)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _progress(enabled: bool, total: int):
+    from rich.console import Console
+    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, ProgressColumn,
+                               TextColumn, TimeElapsedColumn, TimeRemainingColumn)
+    from rich.text import Text
+
+    class Rate(ProgressColumn):
+        def render(self, task):
+            speed = task.finished_speed or task.speed
+            return Text(f"{speed:6.1f} ops/s" if speed else "   -- ops/s", style="progress.data.speed")
+
+    return Progress(TextColumn("[bold]label"), BarColumn(), MofNCompleteColumn(), Rate(),
+                    TextColumn("eta"), TimeRemainingColumn(), TimeElapsedColumn(),
+                    console=Console(stderr=True), disable=not enabled, transient=False,
+                    speed_estimate_period=60.0)
+
+
+def _jobs(plan: LabelPlan) -> Iterator[Job]:
+    fp = plan.params.fingerprint()
+    seed = plan.config.seed
+    for a in plan.assemblies:
+        gh = a.geometry_hash
+        for op in plan.todo[a.name]:
+            yield Job(a, op, label_key(op, gh, fp, seed), label_seed(op, gh, fp, seed))
+
+
+def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
+              on_batch: Callable[[LabelSummary], None] | None = None) -> LabelSummary:
+    """Label everything ``cfg`` asks for that is not in the dataset yet; see the module docstring."""
+    plan = plan or prepare(cfg)
+    out = Path(cfg.out)
+    summary = LabelSummary(out=str(out), total=plan.total, existing=plan.existing)
+
+    def commit_meta() -> None:
+        if plan.new_dataset:
+            write_meta(out, DatasetMeta(schema_version=SCHEMA_VERSION, root_seed=int(cfg.seed),
+                                        params=json.loads(json.dumps(plan.params.to_dict())),
+                                        command=cfg.command))
+        clean_partial_files(out)
+
+    if plan.todo_count == 0:
+        commit_meta()
+        return summary
+
+    pending = {j.key for j in _jobs(plan)}
+    buffer: list[dict] = []
+    last_flush = time.monotonic()
+    t0 = time.perf_counter()
+
+    def flush() -> None:
+        nonlocal last_flush
+        if buffer:
+            summary.shards += len(write_shard(out, rows_to_table(buffer)))
+            summary.labelled += len(buffer)
+            for r in buffer:
+                summary.nodes[r["node"]] = summary.nodes.get(r["node"], 0) + 1
+                summary.per_assembly[r["assembly"]] = summary.per_assembly.get(r["assembly"], 0) + 1
+                b = min(HIST_BINS - 1, max(0, int(r["score"] * HIST_BINS)))
+                summary.hist[b] += 1
+            buffer.clear()
+        last_flush = time.monotonic()
+
+    with _sigterm_as_interrupt(), connect(cfg.address, num_cpus=cfg.num_cpus) as rt:
+        commit_meta()  # only once Ray is up: a failed connection leaves nothing behind
+        pool = SimPool(cfg.workers or rt.cpus, backend=cfg.backend, batch_size=cfg.batch_size)
+        summary.workers = pool.size
+        progress = _progress(cfg.progress, plan.total)
+        try:
+            with progress:
+                bar = progress.add_task("label", total=plan.total, completed=plan.existing)
+                for res in pool.stream(_jobs(plan), plan.params, images=True, total=plan.todo_count):
+                    fresh = 0
+                    for row in res.rows:
+                        if row["key"] in pending:
+                            pending.discard(row["key"])
+                            buffer.append(row)
+                            fresh += 1
+                        else:
+                            summary.duplicates += 1
+                    progress.advance(bar, fresh)
+                    if len(buffer) >= cfg.flush_rows or time.monotonic() - last_flush >= cfg.flush_seconds:
+                        flush()
+                    if on_batch is not None:
+                        on_batch(summary)
+        except KeyboardInterrupt:
+            summary.interrupted = True
+            raise
+        finally:
+            try:
+                flush()  # commit what has arrived, also when interrupted
+            finally:
+                summary.seconds = time.perf_counter() - t0
+                summary.resubmitted = pool.stats["resubmitted"]
+                summary.sim_s = pool.stats["sim_s"]
+                summary.task_s = pool.stats["task_s"]
+                pool.shutdown()
+    return summary
+
+
+def format_summary(s: LabelSummary) -> str:
+    """A plain-text summary: operations, rate, time, nodes, score histogram."""
+    lines = [
+        f"dataset      {s.out}",
+        f"operations   {s.total} selected, {s.existing} already present, {s.labelled} labelled now"
+        + (f", {s.duplicates} duplicate results dropped" if s.duplicates else "")
+        + (f", {s.resubmitted} batches resubmitted" if s.resubmitted else ""),
+        f"time         {s.seconds:.1f} s, {s.rate:.2f} ops/s with {s.workers} workers"
+        + (f" ({s.sim_s / s.task_s:.0%} of worker time in the simulator)" if s.task_s > 0 else ""),
+        f"shards       {s.shards}",
+    ]
+    if s.per_assembly:
+        lines.append("assemblies   " + ", ".join(f"{k} {v}" for k, v in sorted(s.per_assembly.items())))
+    if s.nodes:
+        lines.append("nodes        " + ", ".join(f"{k} {v}" for k, v in sorted(s.nodes.items())))
+    if s.labelled:
+        lines.append("score histogram (this run)")
+        peak = max(s.hist) or 1
+        for i, c in enumerate(s.hist):
+            lo, hi = i / HIST_BINS, (i + 1) / HIST_BINS
+            bar = "#" * int(round(40 * c / peak))
+            lines.append(f"  [{lo:.1f}, {hi:.1f}{']' if i == HIST_BINS - 1 else ')'} {c:7d} {bar}")
+    return "\n".join(lines)

@@ -1,0 +1,88 @@
+"""The AND/OR graph of recursive disassembly: reachable subassemblies and their partitions.
+
+Starting from the whole assembly, every partition (moving, fixed) of a subassembly yields two
+subassemblies, partitioned recursively (memoised per subassembly) until single parts remain.
+Mode 'online' uses RAP's one-partition-per-cell choice (``online_partitions``); mode 'all' uses
+every feasible partition (``all_partitions``), whose number can be exponential: the search stops
+with ``TooManyPartitions`` past ``max_subassemblies`` composite subassemblies or past the
+per-subassembly enumeration budget.
+
+Cost: one partition query per reachable composite subassembly (see ``rap.geometry.partitions``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable
+
+from rap.geometry.ndbg import NDBG
+from rap.geometry.partitions import (DEFAULT_MAX_COUNT, Partition, TooManyPartitions,
+                                     all_partitions, online_partitions)
+
+__all__ = ["AndOrGraph", "and_or_graph", "MODES"]
+
+MODES = ("online", "all")
+
+
+@dataclass(frozen=True)
+class AndOrGraph:
+    """Reachable subassemblies (single parts included) and the partitions of the composite ones."""
+
+    mode: str
+    root: frozenset[str]
+    subassemblies: frozenset[frozenset[str]]
+    partitions: dict  # frozenset[str] -> tuple[Partition, ...] (composite subassemblies only)
+    interlocked: tuple[frozenset[str], ...]
+
+    @property
+    def n_subassemblies(self) -> int:
+        return len(self.subassemblies)
+
+    @property
+    def n_composite(self) -> int:
+        return len(self.partitions)
+
+    @property
+    def n_operations(self) -> int:
+        """Distinct partitions (= assembly operations) over all reachable subassemblies."""
+        return sum(len(p) for p in self.partitions.values())
+
+
+def and_or_graph(ndbg: NDBG, mode: str = "online", root: Iterable[str] | None = None,
+                 max_subassemblies: int | None = None,
+                 max_count: int = DEFAULT_MAX_COUNT,
+                 max_operations: int | None = None) -> AndOrGraph:
+    """Enumerate the AND/OR graph from ``root`` (default: the whole assembly), memoised.
+
+    Budgets (each raises ``TooManyPartitions``): ``max_subassemblies`` composite subassemblies,
+    ``max_count`` partition incidences per subassembly, ``max_operations`` partitions in all.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}")
+    root_set = frozenset(ndbg.ids if root is None else root)
+    seen: set[frozenset[str]] = {root_set}
+    parts: dict[frozenset[str], tuple[Partition, ...]] = {}
+    locked: list[frozenset[str]] = []
+    stack = [root_set]
+    n_ops = 0
+    while stack:
+        s = stack.pop()
+        if len(s) < 2:
+            continue
+        if max_subassemblies is not None and len(parts) >= max_subassemblies:
+            raise TooManyPartitions(f"more than {max_subassemblies} composite subassemblies")
+        ps = tuple(online_partitions(ndbg, s) if mode == "online"
+                   else all_partitions(ndbg, s, max_count=max_count))
+        parts[s] = ps
+        n_ops += len(ps)
+        if max_operations is not None and n_ops > max_operations:
+            raise TooManyPartitions(f"more than {max_operations} operations")
+        if not ps:
+            locked.append(s)
+        for p in ps:
+            for child in (p.moving, p.fixed):
+                if child not in seen:
+                    seen.add(child)
+                    stack.append(child)
+    locked.sort(key=lambda x: (len(x), sorted(x)))
+    return AndOrGraph(mode, root_set, frozenset(seen), parts, tuple(locked))

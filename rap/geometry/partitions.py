@@ -1,0 +1,376 @@
+"""Partitions of a subassembly from the NDBG: RAP's online choice, all of them, interlocking.
+
+For a subassembly S and a cell, the feasible moving sets are the nonempty proper subsets M of S
+closed under the out-edges of the cell's DBG restricted to S (no part of M is blocked by a part
+of S \\ M): the ideals of the condensation of that DBG. A feasible (M, S \\ M) is feasible in a
+set of cells; maximal runs of consecutive cells (cyclically, across angle 0 too) form maximal
+direction ranges. ``Partition.removal_unit`` is the angular middle of its range (the vertex's
+direction for a single vertex), and its exact counterpart ``direction`` is verified exactly to be
+strictly inside the range (an exact interior vector replaces it if floats ever fall outside).
+
+* ``online_partitions`` is RAP's choice: per cell the sink strongly connected component (of the
+  DBG restricted to S) containing the smallest part index among the sink components (none when
+  that component is S itself), then equal choices of adjacent cells merged. Per cell O(|S|) big-
+  int operations when the restricted DBG is acyclic (sinks are the parts blocked by nobody; a
+  backward closure from them over in-bitmasks proves there is no other sink component), O(|S|^2)
+  otherwise; cells whose restricted DBG did not change are skipped.
+* ``all_partitions`` enumerates the ideals of every distinct restricted DBG (O(|S|) per ideal),
+  deduplicates them as (moving, fixed, maximal range), optionally samples ``limit`` of them
+  uniformly with the given ``np.random.Generator``. The count can be exponential in |S|; more than
+  ``max_count`` (moving set, cell run) incidences raise ``TooManyPartitions``.
+* ``interlocked`` / ``is_interlocked``: no feasible partition in any cell.
+* ``cell_partition_counts``: the number of feasible moving sets per cell (capped; pictures).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Iterable
+
+from rap.errors import InputError
+from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, arc_middle_unit,
+                                exact_direction, in_open_arc, primitive, unit)
+from rap.geometry.ndbg import NDBG
+from rap.operation import Operation
+
+__all__ = ["Partition", "TooManyPartitions", "online_partitions", "all_partitions",
+           "interlocked", "is_interlocked", "cell_partition_counts", "DEFAULT_MAX_COUNT"]
+
+DEFAULT_MAX_COUNT = 2_000_000
+
+
+class TooManyPartitions(InputError):
+    """Enumerating all partitions would exceed the configured budget."""
+
+
+@dataclass(frozen=True)
+class Partition:
+    """(moving, fixed) separable by translating ``moving`` along any direction of its range.
+
+    ``range_start``/``range_end``: exact integer bounds of the maximal merged direction range
+    (CCW from start to end; equal for a single vertex); ``start_closed``/``end_closed`` tell
+    whether the bound direction itself belongs to the range. ``span`` is 'vertex', 'range' or
+    'circle' (every direction; bounds are then (1, 0)). ``direction`` is the exact removal
+    direction, ``removal_unit`` its float unit vector (the middle of the range).
+    """
+
+    moving: frozenset[str]
+    fixed: frozenset[str]
+    range_start: IVec
+    range_end: IVec
+    removal_unit: tuple[float, float]
+    direction: IVec
+    span: str = "range"
+    start_closed: bool = False
+    end_closed: bool = False
+
+    def operation(self) -> Operation:
+        """The assembly operation: ``moving`` travels along -removal_unit to its place."""
+        ux, uy = self.removal_unit
+        dx, dy = self.direction
+        return Operation(self.moving, self.fixed, (-ux, -uy), (Fraction(-dx), Fraction(-dy)))
+
+    def contains(self, d) -> bool:
+        """Is the exact direction d in this partition's range?"""
+        if self.span == "circle":
+            return True
+        p = primitive(d)
+        if self.span == "vertex":
+            return p == self.range_start
+        if (self.start_closed and p == self.range_start) or (self.end_closed and p == self.range_end):
+            return True
+        return in_open_arc(p, self.range_start, self.range_end)
+
+
+def _members(ndbg: NDBG, subset) -> tuple[int, list[int]]:
+    pos = {p: i for i, p in enumerate(ndbg.ids)}
+    m = 0
+    for p in subset:
+        if p not in pos:
+            raise InputError(f"unknown part id {p!r}")
+        m |= 1 << pos[p]
+    idx = [i for i in range(ndbg.n) if m >> i & 1]
+    return m, idx
+
+
+def _range_partition(ndbg: NDBG, moving: int, m: int, kf: int, kl: int, whole: bool) -> Partition:
+    mov = ndbg.names(moving)
+    fix = ndbg.names(m & ~moving)
+    cells = ndbg.cells
+    if whole:
+        d = (0, 1)
+        return Partition(mov, fix, (1, 0), (1, 0), (0.0, 1.0), d, "circle", True, True)
+    a, b = cells[kf], cells[kl]
+    if kf == kl and a.kind == "vertex":
+        return Partition(mov, fix, a.direction, a.direction, a.unit, a.direction, "vertex",
+                         True, True)
+    if a.kind == "vertex":
+        s, s_closed = a.direction, True
+    else:
+        s, s_closed = a.start, False
+    if b.kind == "vertex":
+        e, e_closed = b.direction, True
+    else:
+        e, e_closed = b.end, False
+    c = s[0] * e[1] - s[1] * e[0]
+    if s[0] * s[0] + s[1] * s[1] == e[0] * e[0] + e[1] * e[1] and c != 0:
+        # equal lengths: the exact bisector s + e (negated for ranges over 180 degrees)
+        d = primitive((s[0] + e[0], s[1] + e[1]) if c > 0 else (-s[0] - e[0], -s[1] - e[1]))
+        u = unit(d)
+    else:
+        u = arc_middle_unit(s, e)
+        d = exact_direction(u)
+    if not in_open_arc(d, s, e):  # floats fell outside a tiny range: use an exact interior vector
+        d = arc_interior_vector(s, e)
+        u = unit(d)
+    return Partition(mov, fix, s, e, u, d, "range", s_closed, e_closed)
+
+
+def _runs(values: list[int]) -> list[tuple[int, int, int, bool]]:
+    """Maximal cyclic runs (value, first, last, covers_all) of equal nonzero values."""
+    N = len(values)
+    if all(v == values[0] for v in values):
+        return [(values[0], 0, N - 1, True)] if values[0] else []
+    k0 = next(k for k in range(N) if values[k] != values[k - 1])
+    runs = []
+    start = k0
+    cur = values[k0]
+    for t in range(1, N + 1):
+        k = (k0 + t) % N
+        if t == N or values[k] != cur:
+            if cur:
+                runs.append((cur, start, (k - 1) % N, False))
+            start, cur = k, values[k]
+    return runs
+
+
+def _closure(start: int, adj, within: int) -> int:
+    seen = start
+    frontier = start
+    while frontier:
+        new = 0
+        while frontier:
+            low = frontier & -frontier
+            new |= adj[low.bit_length() - 1]
+            frontier ^= low
+        new &= within & ~seen
+        seen |= new
+        frontier = new
+    return seen
+
+
+def _online_choice(out, inn, idx, m) -> int:
+    Z = 0
+    for v in idx:
+        if not out[v] & m:
+            Z |= 1 << v
+    seen = _closure(Z, inn, m)
+    best = Z & -Z
+    if seen != m:
+        R = m & ~seen  # closed under out-edges: every other sink component lies in R
+        done = 0
+        rest = R
+        limit_bit = best.bit_length() - 1 if best else len(out)
+        while rest:
+            low = rest & -rest
+            v = low.bit_length() - 1
+            if v > limit_bit:
+                break
+            F = _closure(low, out, R)
+            B = _closure(low, inn, F)
+            if B == F:
+                best = B
+                break
+            done |= B
+            rest &= ~done
+    if best == m:
+        return 0
+    return best
+
+
+def _changed_cells(ndbg: NDBG, m: int) -> list[int]:
+    """Indices k >= 1 of the cells whose DBG restricted to the parts in m differs from k - 1's."""
+    out = []
+    for k, (src, rows) in enumerate(ndbg.toggle_rows):
+        if k and src & m:
+            for i, jm in rows:
+                if jm & m and m >> i & 1:
+                    out.append(k)
+                    break
+    return out
+
+
+def online_partitions(ndbg: NDBG, subset: Iterable[str]) -> list[Partition]:
+    """RAP's online choice: one partition per cell, equal choices of adjacent cells merged.
+
+    Returned in the CCW order of the range starts from angle 0. Empty when S has one part or is
+    interlocked.
+    """
+    m, idx = _members(ndbg, subset)
+    if len(idx) < 2:
+        return []
+    cells = ndbg.cells
+    N = len(cells)
+    out0 = cells[0].outs
+    inn = [0] * ndbg.n
+    for i in idx:
+        mm = out0[i] & m
+        while mm:
+            low = mm & -mm
+            inn[low.bit_length() - 1] |= 1 << i
+            mm ^= low
+    rows = ndbg.toggle_rows
+    choice = [0] * N
+    cur = _online_choice(out0, inn, idx, m)
+    choice[0] = cur
+    last = 0
+    for k in _changed_cells(ndbg, m):
+        for t in range(last + 1, k):
+            choice[t] = cur
+        for i, jm in rows[k][1]:
+            if m >> i & 1:
+                jm &= m
+                bit = 1 << i
+                while jm:
+                    low = jm & -jm
+                    inn[low.bit_length() - 1] ^= bit
+                    jm ^= low
+        cur = _online_choice(cells[k].outs, inn, idx, m)
+        choice[k] = cur
+        last = k
+    for t in range(last + 1, N):
+        choice[t] = cur
+    parts = [_range_partition(ndbg, mv, m, kf, kl, whole) for mv, kf, kl, whole in _runs(choice)]
+    parts.sort(key=lambda p: angle_key(p.range_start))
+    return parts
+
+
+def _ideals(idx: list[int], r: list[int], m: int, cap: int, count_only: bool = False):
+    """Nonempty proper successor-closed subsets of m (a list; with count_only their number,
+    at most cap + 1). Raises ``TooManyPartitions`` past cap when listing."""
+    n = max(idx) + 1
+    inn = [0] * n
+    for v in idx:
+        mm = r[v]
+        while mm:
+            low = mm & -mm
+            inn[low.bit_length() - 1] |= 1 << v
+            mm ^= low
+    reach = [0] * n
+    coreach = [0] * n
+    for v in idx:
+        reach[v] = _closure(1 << v, r, m)
+        coreach[v] = _closure(1 << v, inn, m)
+    res: list[int] = []
+    found = 0
+    stack = [(0, 0)]
+    while stack:
+        inc, exc = stack.pop()
+        und = m & ~(inc | exc)
+        if not und:
+            if inc and inc != m:
+                if count_only:
+                    found += 1
+                    if found > cap:
+                        return found
+                    continue
+                res.append(inc)
+                if len(res) > cap:
+                    raise TooManyPartitions(
+                        f"more than {cap} feasible moving sets in one cell; use a limit budget")
+            continue
+        low = und & -und
+        v = low.bit_length() - 1
+        stack.append((inc, exc | coreach[v]))
+        stack.append((inc | reach[v], exc))
+    return found if count_only else res
+
+
+def cell_partition_counts(ndbg: NDBG, subset: Iterable[str], cap: int = 100_000) -> list[int]:
+    """Per cell, the number of feasible moving sets of S (capped at ``cap``), for pictures."""
+    m, idx = _members(ndbg, subset)
+    cells = ndbg.cells
+    if len(idx) < 2:
+        return [0] * len(cells)
+    firsts = [0] + _changed_cells(ndbg, m)
+    counts = [0] * len(cells)
+    memo: dict[tuple, int] = {}
+    r = [0] * ndbg.n
+    for a, k in enumerate(firsts):
+        sig = tuple(cells[k].outs[v] & m for v in idx)
+        c = memo.get(sig)
+        if c is None:
+            for v, o in zip(idx, sig):
+                r[v] = o
+            c = memo[sig] = min(cap, _ideals(idx, r, m, cap, count_only=True))
+        end = firsts[a + 1] if a + 1 < len(firsts) else len(cells)
+        for t in range(k, end):
+            counts[t] = c
+    return counts
+
+
+def all_partitions(ndbg: NDBG, subset: Iterable[str], limit: int | None = None, rng=None,
+                   max_count: int = DEFAULT_MAX_COUNT) -> list[Partition]:
+    """Every feasible partition of S, deduplicated as (moving, fixed, maximal direction range).
+
+    Sorted by (sorted moving ids, range start angle). With ``limit`` and more partitions than
+    that, a uniform sample of ``limit`` of them drawn with ``rng`` (an ``np.random.Generator``,
+    required then), still in that order. Raises ``TooManyPartitions`` past ``max_count``
+    (moving set, cell run) incidences.
+    """
+    if limit is not None and rng is None:
+        raise ValueError("all_partitions: rng is required when limit is given")
+    m, idx = _members(ndbg, subset)
+    if len(idx) < 2:
+        return []
+    cells = ndbg.cells
+    N = len(cells)
+    # segments: maximal runs of cells with one restricted DBG
+    seg_first = [0] + _changed_cells(ndbg, m)
+    seg_sig = [tuple(cells[k].outs[v] & m for v in idx) for k in seg_first]
+    S = len(seg_first)
+    memo: dict[tuple, list[int]] = {}
+    where: dict[int, list[int]] = {}
+    count = 0
+    r = [0] * ndbg.n
+    for s, sig in enumerate(seg_sig):
+        ideals = memo.get(sig)
+        if ideals is None:
+            for v, o in zip(idx, sig):
+                r[v] = o
+            ideals = _ideals(idx, r, m, max_count)
+            memo[sig] = ideals
+        count += len(ideals)
+        if count > max_count:
+            raise TooManyPartitions(f"more than {max_count} partitions to enumerate")
+        for mv in ideals:
+            where.setdefault(mv, []).append(s)
+    seg_last = [(seg_first[s + 1] - 1) if s + 1 < S else N - 1 for s in range(S)]
+    result: list[Partition] = []
+    for mv, segs in where.items():
+        if len(segs) == S:
+            result.append(_range_partition(ndbg, mv, m, 0, N - 1, True))
+            continue
+        present = set(segs)
+        for s in segs:
+            if (s - 1) % S in present:
+                continue  # not the start of a run
+            t = s
+            while (t + 1) % S in present:
+                t = (t + 1) % S
+            result.append(_range_partition(ndbg, mv, m, seg_first[s], seg_last[t], False))
+    result.sort(key=lambda p: (sorted(p.moving), angle_key(p.range_start)))
+    if limit is not None and len(result) > limit:
+        pick = sorted(int(i) for i in rng.choice(len(result), size=limit, replace=False))
+        result = [result[i] for i in pick]
+    return result
+
+
+def interlocked(ndbg: NDBG, subset: Iterable[str]) -> bool:
+    """True when S (two or more parts) has no feasible partition in any cell."""
+    subset = list(subset)
+    return len(subset) >= 2 and not online_partitions(ndbg, subset)
+
+
+is_interlocked = interlocked

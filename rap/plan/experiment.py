@@ -1,0 +1,238 @@
+"""The paper's planning experiment: RAP vs the sim-only baseline vs the optimum vs random.
+
+For each assembly of a labelled dataset, with a CNN that has not seen that assembly (a checkpoint
+``MODELS/holdout-NAME.pt`` when present, else trained here with ``rap.model.train.train(dataset,
+holdout=NAME)`` and saved there), every method plans over the same operation space with the
+dataset's simulator parameters and root seed (so the simulator's scores are the dataset's labels):
+
+* each method's search runs with a COLD score cache (an empty ``ScoreCache``): no method looks fast
+  because another one simulated its operations before; its wall time is ``PlanResult.seconds``;
+* the returned sequence is then evaluated by the simulator (``robustness`` R); for ``random`` the
+  figure is the mean R over ``samples`` random sequences.
+
+``write_report`` writes ``results.md`` (a Markdown table and the headline ratios),
+``results.json`` and ``scores.png`` (bars of R per assembly and method, like the paper's score
+comparison figure, with planning times beside it).
+
+No ray: the simulator backend is passed in (the command passes the Ray pool's ``PoolSimulator``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+from rap.errors import InputError
+from rap.plan.cache import ScoreCache
+from rap.plan.planners import make_planner
+from rap.plan.problem import PlanningProblem
+from rap.plan.result import PlanStatus
+from rap.plan.scorers import PredictorCnn, Scorer, SimBackend
+
+__all__ = ["ExperimentRow", "holdout_model", "run_experiment", "summarise", "write_report",
+           "EXPERIMENT_METHODS"]
+
+EXPERIMENT_METHODS = ("random", "rap", "sim", "optimal")
+
+
+@dataclass
+class ExperimentRow:
+    assembly: str
+    method: str
+    robustness: float | None
+    seconds: float
+    eval_seconds: float
+    status: str
+    simulations: int = 0
+    fallbacks: int | None = None
+    decisions: int | None = None
+    extra: dict = field(default_factory=dict)
+
+
+def holdout_model(dataset: str | Path, name: str, models_dir: str | Path, epochs: int = 8,
+                  log: Callable[[str], None] = print) -> Path:
+    """``models_dir/holdout-NAME.pt``; trained on ``dataset`` minus ``name`` when absent."""
+    path = Path(models_dir) / f"holdout-{name}.pt"
+    if path.is_file():
+        return path
+    from rap.model.train import TrainConfig, train
+
+    log(f"training a CNN without {name} ({epochs} epochs) -> {path}")
+    res = train(dataset, holdout=name, config=TrainConfig(epochs=epochs))
+    return res.save(path)
+
+
+def _params_and_seed(dataset: str | Path):
+    from rap.dataset import read_meta
+    from rap.sim.params import SimParams
+
+    meta = read_meta(dataset)
+    if meta is None:
+        raise InputError(f"{dataset}: not a rap-farm dataset (no _rapfarm.json)")
+    return SimParams.from_dict(dict(meta.params)), int(meta.root_seed)
+
+
+def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: SimBackend,
+                   models_dir: str | Path = "models", epochs: int = 8, trials: int | None = None,
+                   methods: Sequence[str] = EXPERIMENT_METHODS, samples: int = 50,
+                   log: Callable[[str], None] = print) -> list[ExperimentRow]:
+    """Plan every assembly (``rap.assembly.Assembly`` objects named as in the dataset) with every
+    method; see the module doc. ``trials`` overrides the dataset's trials per operation."""
+    params, root_seed = _params_and_seed(dataset)
+    if trials is not None:
+        params = params.with_(trials=int(trials))
+    rows: list[ExperimentRow] = []
+    for asm in assemblies:
+        cnn = None
+        if "rap" in methods:
+            cnn = PredictorCnn.load(holdout_model(dataset, asm.name, models_dir, epochs, log))
+        for method in methods:
+            problem = PlanningProblem(asm, params, root_seed, "online")
+            scorer = Scorer(sim_backend, cnn if method == "rap" else None, ScoreCache())  # cold
+            if method == "rap":  # warm the CNN and renderer up once (imports, first-call costs)
+                scorer.cnn.prob_high(problem, list(problem.candidates(problem.whole))[:1])
+            res = make_planner(method, samples=samples).solve(problem, scorer)
+            st = res.stats
+            r = st.get("mean_robustness") if method == "random" else res.robustness
+            row = ExperimentRow(asm.name, method, r, res.seconds, res.eval_seconds,
+                                res.status.value, int(st.get("sim_run", 0)),
+                                st.get("fallbacks") if method == "rap" else None,
+                                st.get("decisions") if method == "rap" else None,
+                                {k: st[k] for k in ("exhaustive_sequences", "dp_evaluations",
+                                                    "operations", "dp_speedup", "cnn_ops")
+                                 if k in st})
+            rows.append(row)
+            log(f"{asm.name:14s} {method:8s} R={'-' if r is None else f'{r:.4f}'} "
+                f"plan {res.seconds:.2f} s, {row.simulations} simulations"
+                + (f", {row.fallbacks}/{row.decisions} fallbacks" if method == "rap" else ""))
+            if res.status is not PlanStatus.FOUND:
+                log(f"  {res.status.value}: {res.message}")
+    return rows
+
+
+def _mean(xs):
+    xs = [x for x in xs if x is not None and not (isinstance(x, float) and math.isnan(x))]
+    return sum(xs) / len(xs) if xs else float("nan")
+
+
+def summarise(rows: Sequence[ExperimentRow]) -> dict:
+    """Headline figures: mean R and time per method, sim/RAP time ratio, R differences, fallbacks."""
+    by = {}
+    for r in rows:
+        by.setdefault(r.method, []).append(r)
+    out: dict = {"methods": {}}
+    for m, rs in by.items():
+        out["methods"][m] = {"mean_robustness": _mean([r.robustness for r in rs]),
+                             "mean_seconds": _mean([r.seconds for r in rs]),
+                             "total_seconds": sum(r.seconds for r in rs)}
+    if "rap" in by and "sim" in by:
+        rap_t, sim_t = out["methods"]["rap"]["mean_seconds"], out["methods"]["sim"]["mean_seconds"]
+        out["sim_over_rap_time"] = sim_t / rap_t if rap_t > 0 else float("inf")
+        out["rap_minus_sim_robustness"] = (out["methods"]["rap"]["mean_robustness"]
+                                           - out["methods"]["sim"]["mean_robustness"])
+    if "rap" in by and "optimal" in by:
+        out["optimal_minus_rap_robustness"] = (out["methods"]["optimal"]["mean_robustness"]
+                                               - out["methods"]["rap"]["mean_robustness"])
+    if "rap" in by:
+        out["rap_fallbacks"] = sum(r.fallbacks or 0 for r in by["rap"])
+        out["rap_decisions"] = sum(r.decisions or 0 for r in by["rap"])
+        out["rap_assemblies_with_fallback"] = sum(1 for r in by["rap"] if r.fallbacks)
+    if "optimal" in by:
+        opt = {r.assembly: r.robustness for r in by["optimal"]}
+        worse = [f"{r.assembly}/{r.method}" for r in rows if r.method in ("rap", "sim")
+                 and r.robustness is not None and opt.get(r.assembly) is not None
+                 and r.robustness > opt[r.assembly] + 1e-12]
+        out["optimal_beaten_by"] = worse  # must stay empty
+    return out
+
+
+def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
+                 notes: dict | None = None) -> list[Path]:
+    """``results.md``, ``results.json`` and ``scores.png`` under ``out_dir``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = summarise(rows)
+    names = list(dict.fromkeys(r.assembly for r in rows))
+    methods = [m for m in EXPERIMENT_METHODS if any(r.method == m for r in rows)]
+    cell = {(r.assembly, r.method): r for r in rows}
+
+    def fmt(x, spec=".3f"):
+        return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+    lines = [f"# {title}", ""]
+    if notes:
+        lines += [f"- {k}: {v}" for k, v in notes.items()] + [""]
+    lines += ["## Robustness R (simulator) and planning time (s, cold score cache)", "",
+              "| assembly | " + " | ".join(f"R {m}" for m in methods) + " | "
+              + " | ".join(f"t {m}" for m in methods) + " | RAP fallbacks |",
+              "|---" * (1 + 2 * len(methods) + 1) + "|"]
+    for n in names:
+        rr = [fmt(cell[(n, m)].robustness) if (n, m) in cell else "–" for m in methods]
+        tt = [fmt(cell[(n, m)].seconds, ".2f") if (n, m) in cell else "–" for m in methods]
+        fb = cell.get((n, "rap"))
+        fbs = f"{fb.fallbacks}/{fb.decisions}" if fb and fb.decisions is not None else "–"
+        lines.append(f"| {n} | " + " | ".join(rr) + " | " + " | ".join(tt) + f" | {fbs} |")
+    ms = summary["methods"]
+    lines.append("| **mean** | " + " | ".join(fmt(ms[m]["mean_robustness"]) for m in methods) + " | "
+                 + " | ".join(fmt(ms[m]["mean_seconds"], ".2f") for m in methods) + " | |")
+    lines += ["", "## Headline (ratios from this run)", ""]
+    if "sim_over_rap_time" in summary:
+        lines.append(f"- RAP is {summary['sim_over_rap_time']:.1f}x faster than the sim-only "
+                     f"baseline (mean {ms['rap']['mean_seconds']:.2f} s vs "
+                     f"{ms['sim']['mean_seconds']:.2f} s; paper: 9.1x, 2.38 s vs 21.58 s)")
+        lines.append(f"- mean robustness RAP - sim = {summary['rap_minus_sim_robustness']:+.4f} "
+                     f"(paper: -0.005)")
+    if "optimal_minus_rap_robustness" in summary:
+        lines.append(f"- optimal - RAP = {summary['optimal_minus_rap_robustness']:+.4f}; optimal is "
+                     f"beaten by: {', '.join(summary['optimal_beaten_by']) or 'none (as it must)'}")
+    if "rap_fallbacks" in summary:
+        lines.append(f"- RAP fell back to the simulator at {summary['rap_fallbacks']} of "
+                     f"{summary['rap_decisions']} decisions, in "
+                     f"{summary['rap_assemblies_with_fallback']} of {len(names)} assemblies")
+    opt_rows = [cell[(n, "optimal")] for n in names if (n, "optimal") in cell]
+    if opt_rows and all("exhaustive_sequences" in r.extra for r in opt_rows):
+        lines.append("- optimal by DP over subassemblies: "
+                     + "; ".join(f"{r.assembly} {r.extra['dp_evaluations']} evaluations vs "
+                                 f"{r.extra['exhaustive_sequences']:,} sequences"
+                                 for r in opt_rows))
+    md = out / "results.md"
+    md.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    js = out / "results.json"
+    js.write_text(json.dumps({"title": title, "notes": notes or {}, "summary": summary,
+                              "rows": [r.__dict__ for r in rows]}, indent=2, default=str) + "\n",
+                  encoding="utf-8")
+
+    fig, (ax, axt) = plt.subplots(1, 2, figsize=(13, 4.2), gridspec_kw={"width_ratios": [3, 2]})
+    labels = {"random": "random (mean of 50)", "rap": "RAP", "sim": "sim only", "optimal": "optimal"}
+    width = 0.8 / max(1, len(methods))
+    for k, m in enumerate(methods):
+        xs = [i + (k - (len(methods) - 1) / 2) * width for i in range(len(names))]
+        ax.bar(xs, [cell[(n, m)].robustness or 0.0 if (n, m) in cell else 0.0 for n in names],
+               width, label=labels.get(m, m))
+        axt.bar(xs, [cell[(n, m)].seconds if (n, m) in cell else 0.0 for n in names], width,
+                label=labels.get(m, m))
+    for a in (ax, axt):
+        a.set_xticks(range(len(names)))
+        a.set_xticklabels(names, rotation=20)
+    ax.set_ylabel("robustness R")
+    ax.set_ylim(0, 1.05)
+    ax.legend(fontsize=8, loc="lower left")
+    ax.set_title("Sequence robustness")
+    axt.set_yscale("log")
+    axt.set_ylabel("planning time (s, log)")
+    axt.set_title("Planning time (cold cache)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    png = out / "scores.png"
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+    return [md, js, png]

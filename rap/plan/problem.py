@@ -1,0 +1,136 @@
+"""The planning problem: an assembly, its operation space, and how operations are scored.
+
+A ``PlanningProblem`` says *what* is to be planned, never *how* (the planners) or *whether a plan
+is valid* (``rap.plan.validate``), in the manner of OMPL's ``ProblemDefinition``:
+
+* ``assembly``: the parts in their final placements;
+* ``space``: which operations a subassembly offers. ``"online"`` is RAP's choice (one partition per
+  NDBG cell, adjacent cells admitting the same partition merged, the middle direction of the merged
+  range: ``rap.geometry.partitions.online_partitions``), also used by the paper for the optimal and
+  random baselines; ``"all"`` every closed moving set of every cell (``all_partitions``);
+* ``params`` and ``root_seed``: the simulator parameters and the run's root seed. An operation's
+  simulator seed is ``derive_seed(root_seed, op.key(geometry_hash, params.fingerprint()))`` and its
+  cache/dataset key ``rap.enumerate.label_key`` of the same, exactly as the labelling farm does, so a
+  score never depends on which process or planner asked for it.
+
+``candidates(subset)`` returns the operations that assemble ``subset`` from two of its subsets
+(deduplicated by content key, in the partition function's order); an empty tuple means the subset
+is interlocked. The NDBG is built once, lazily. ``partition_fn`` replaces the NDBG for tests.
+
+No ray, no torch.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+from typing import Callable, Iterable
+
+from rap.assembly import Assembly
+from rap.enumerate import label_key, label_seed
+from rap.errors import InputError
+from rap.operation import Operation
+from rap.seeds import DEFAULT_ROOT_SEED
+
+__all__ = ["SPACES", "PlanningProblem", "PartitionFn", "minimal_interlocked"]
+
+SPACES = ("online", "all")
+
+# (subset) -> iterable of Operations assembling ``subset``
+PartitionFn = Callable[[frozenset], Iterable[Operation]]
+
+
+def _ndbg_partition_fn(assembly: Assembly, space: str) -> PartitionFn:
+    from rap.geometry import partitions as P
+    from rap.geometry.ndbg import build_ndbg
+
+    ndbg = build_ndbg(assembly)
+    choose = P.online_partitions if space == "online" else P.all_partitions
+
+    def fn(subset: frozenset) -> list[Operation]:
+        return [p.operation() for p in choose(ndbg, frozenset(subset))]
+
+    return fn
+
+
+@dataclass
+class PlanningProblem:
+    """Plan an assembly sequence for ``assembly`` over the operation ``space`` (see module doc)."""
+
+    assembly: Assembly
+    params: object  # rap.sim.params.SimParams (anything with ``fingerprint()``)
+    root_seed: int = DEFAULT_ROOT_SEED
+    space: str = "online"
+    partition_fn: PartitionFn | None = field(default=None, repr=False)
+    _cache: dict = field(default_factory=dict, init=False, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
+
+    def __post_init__(self):
+        if self.space not in SPACES:
+            raise InputError(f"--space {self.space!r}: choose one of {', '.join(SPACES)}")
+        self.root_seed = int(self.root_seed)
+
+    # -- identity of operations -----------------------------------------------------------------
+    @property
+    def whole(self) -> frozenset[str]:
+        return frozenset(self.assembly.ids)
+
+    @property
+    def geometry_hash(self) -> str:
+        return self.assembly.geometry_hash
+
+    @property
+    def params_fingerprint(self) -> str:
+        return self.params.fingerprint()
+
+    def key(self, op: Operation) -> str:
+        """Cache key of an operation's score: content key + simulator parameters + root seed."""
+        return label_key(op, self.geometry_hash, self.params_fingerprint, self.root_seed)
+
+    def seed(self, op: Operation) -> int:
+        """The simulator seed of an operation (the labelling farm's ``label_seed``)."""
+        return label_seed(op, self.geometry_hash, self.params_fingerprint, self.root_seed)
+
+    # -- the operation space --------------------------------------------------------------------
+    def candidates(self, subset: Iterable[str]) -> tuple[Operation, ...]:
+        """Operations assembling ``subset`` (empty when interlocked). Memoised; thread-safe."""
+        subset = frozenset(subset)
+        with self._lock:
+            hit = self._cache.get(subset)
+            if hit is not None:
+                return hit
+            if self.partition_fn is None:
+                self.partition_fn = _ndbg_partition_fn(self.assembly, self.space)
+            fn = self.partition_fn
+        seen: dict[str, Operation] = {}
+        if len(subset) >= 2:
+            gh = self.geometry_hash
+            for op in fn(subset):
+                if op.subassembly != subset:
+                    raise ValueError(f"partition function returned {op.describe()} for "
+                                     f"{{{','.join(sorted(subset))}}}")
+                seen.setdefault(op.key(gh), op)
+        ops = tuple(seen.values())
+        with self._lock:
+            self._cache[subset] = ops
+        return ops
+
+    def is_interlocked(self, subset: Iterable[str]) -> bool:
+        subset = frozenset(subset)
+        return len(subset) >= 2 and not self.candidates(subset)
+
+
+def minimal_interlocked(problem: PlanningProblem, subset: Iterable[str]) -> frozenset[str]:
+    """Shrink an interlocked ``subset`` to an inclusion-minimal interlocked one by dropping parts
+    one at a time while the rest stays interlocked. O(n^2) candidate queries."""
+    cur = sorted(subset)
+    changed = True
+    while changed and len(cur) > 2:
+        changed = False
+        for pid in list(cur):
+            rest = [p for p in cur if p != pid]
+            if len(rest) >= 2 and problem.is_interlocked(rest):
+                cur = rest
+                changed = True
+                break
+    return frozenset(cur)

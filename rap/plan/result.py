@@ -1,0 +1,128 @@
+"""What a planner returns: a status, the steps in assembly order, and what it cost.
+
+``PlanStatus`` (like OMPL's ``PlannerStatus``): ``FOUND``, ``INFEASIBLE`` (some subassembly admits
+no one-step translation: ``interlocked`` names it), ``BUDGET_SPENT`` (the planner stopped at its
+budget of simulations or seconds).
+
+``PlanStep``: one assembly operation in assembly order; ``direction`` is the unit vector along which
+``moving`` travels to its place; ``score`` the simulator's score of that operation (every returned
+sequence is evaluated by the simulator); ``source`` what chose it (``"cnn"``, ``"sim"`` or
+``"random"``); ``confidence`` the CNN's P(high) when the CNN chose it, else ``None``.
+
+``PlanResult.to_json()`` is the ``rap-farm plan --out`` document.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from enum import Enum
+from typing import Sequence
+
+from rap.operation import Operation
+
+__all__ = ["PlanStatus", "PlanStep", "PlanResult", "SOURCES", "robustness_of", "is_assembly_order"]
+
+SOURCES = ("cnn", "sim", "random")
+
+
+class PlanStatus(Enum):
+    FOUND = "found"
+    INFEASIBLE = "infeasible"
+    BUDGET_SPENT = "budget spent"
+
+
+@dataclass(frozen=True)
+class PlanStep:
+    moving: tuple[str, ...]
+    fixed: tuple[str, ...]
+    direction: tuple[float, float]
+    source: str
+    score: float | None = None
+    confidence: float | None = None
+    operation: Operation | None = field(default=None, compare=False, repr=False)
+
+    @classmethod
+    def of(cls, op: Operation, source: str, confidence: float | None = None,
+           score: float | None = None) -> "PlanStep":
+        return cls(tuple(sorted(op.moving)), tuple(sorted(op.fixed)),
+                   (float(op.direction[0]), float(op.direction[1])), source,
+                   None if score is None else float(score),
+                   None if confidence is None else float(confidence), op)
+
+    def to_operation(self) -> Operation:
+        if self.operation is not None:
+            return self.operation
+        return Operation(frozenset(self.moving), frozenset(self.fixed), self.direction)
+
+    def to_json(self) -> dict:
+        return {"moving": list(self.moving), "fixed": list(self.fixed),
+                "direction": [self.direction[0], self.direction[1]], "score": self.score,
+                "source": self.source, "confidence": self.confidence}
+
+
+def robustness_of(steps: Sequence[PlanStep]) -> float | None:
+    """R = product of the steps' scores (None when a score is missing)."""
+    if any(s.score is None for s in steps):
+        return None
+    return float(math.prod(s.score for s in steps))
+
+
+def is_assembly_order(steps: Sequence[PlanStep], parts: Sequence[str]) -> str | None:
+    """None when ``steps`` assemble ``parts`` in a valid order (each step's moving and fixed sets
+    are single parts or were built by earlier steps; n-1 steps; the last builds everything), else
+    the first problem found, as text."""
+    built = {frozenset([p]) for p in parts}
+    parts_set = frozenset(parts)
+    if len(steps) != max(0, len(parts_set) - 1):
+        return f"{len(steps)} steps for {len(parts_set)} parts (expected {len(parts_set) - 1})"
+    for i, s in enumerate(steps, 1):
+        m, f = frozenset(s.moving), frozenset(s.fixed)
+        if not m or not f or m & f:
+            return f"step {i}: moving and fixed must be non-empty and disjoint"
+        for name, side in (("moving", m), ("fixed", f)):
+            if side not in built:
+                return f"step {i}: {name} {{{','.join(sorted(side))}}} was not assembled before"
+        built.discard(m)
+        built.discard(f)
+        built.add(m | f)
+    if len(parts_set) > 1 and parts_set not in built:
+        return "the steps do not assemble every part"
+    return None
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """The outcome of one planner run (see module doc). ``seconds``: time to find the sequence;
+    ``eval_seconds``: time to evaluate it with the simulator afterwards (0 when every step's score
+    was already known); ``stats``: counters (CNN batches, simulations, cache hits, fallbacks, ...)."""
+
+    status: PlanStatus
+    method: str
+    assembly: str
+    steps: tuple[PlanStep, ...] = ()
+    robustness: float | None = None
+    seconds: float = 0.0
+    eval_seconds: float = 0.0
+    interlocked: tuple[str, ...] | None = None
+    stats: dict = field(default_factory=dict)
+    message: str = ""
+
+    @property
+    def found(self) -> bool:
+        return self.status is PlanStatus.FOUND
+
+    def with_(self, **changes) -> "PlanResult":
+        return replace(self, **changes)
+
+    def to_json(self) -> dict:
+        """The ``--out`` document: exactly the keys documented for ``rap-farm plan``."""
+        if self.status is PlanStatus.FOUND:
+            return {"assembly": self.assembly, "method": self.method, "feasible": True,
+                    "robustness": self.robustness, "steps": [s.to_json() for s in self.steps],
+                    "seconds": self.seconds}
+        if self.status is PlanStatus.INFEASIBLE:
+            return {"assembly": self.assembly, "method": self.method, "feasible": False,
+                    "interlocked": list(self.interlocked or ())}
+        return {"assembly": self.assembly, "method": self.method, "feasible": None,
+                "status": self.status.value, "message": self.message, "seconds": self.seconds}

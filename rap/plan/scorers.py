@@ -1,0 +1,234 @@
+"""How planners score operations: one ``Scorer`` over a simulator backend and an optional CNN.
+
+A planner sees one object, ``Scorer``, with two questions:
+
+* ``scores(problem, ops) -> list[float]``: the simulator's score of each operation, in input order.
+  Scores already known are taken from the ``ScoreCache`` (content key + root seed, see
+  ``rap.plan.cache``); the rest go to the simulator backend in ONE call, so a backend that runs
+  them in parallel (the Ray ``SimPool``, ``rap.farm.service.PoolSimulator``) sees the whole batch.
+* ``prob_high(problem, ops) -> float [N]``: the CNN's P(high) for each operation, one batch.
+
+Simulator backends (``SimBackend``: ``simulate_many(problem, ops) -> list[CachedScore]``):
+``LocalSimulator`` runs ``rap.sim.simulator.simulate`` in this process, one operation after another,
+with the per-operation seed ``problem.seed(op)`` (the labelling farm's seed, so the scores equal the
+dataset's labels for the same parameters and root seed). CNN backend: ``PredictorCnn`` renders each
+operation (``rap.render.images.render_pair``) and asks ``rap.model.predict.Predictor`` (torch is
+imported only when one is loaded).
+
+``Budget`` limits a run (simulations, seconds); a scorer raises ``BudgetSpent`` when a call would
+exceed it and the planner reports ``PlanStatus.BUDGET_SPENT``. ``Scorer.fork()`` gives a scorer with
+the same backends and cache and fresh counters (one per request in the planning service).
+
+No ray; no torch at import.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Protocol, Sequence
+
+import numpy as np
+
+from rap.operation import Operation
+from rap.plan.cache import CachedScore, ScoreCache
+from rap.plan.problem import PlanningProblem
+
+__all__ = ["SimBackend", "CnnBackend", "LocalSimulator", "PredictorCnn", "Scorer", "ScorerStats",
+           "Budget", "BudgetSpent", "IMAGE_SIZE", "model_familiarity"]
+
+IMAGE_SIZE = 64
+
+
+class SimBackend(Protocol):
+    def simulate_many(self, problem: PlanningProblem,
+                      ops: Sequence[Operation]) -> list[CachedScore]: ...
+
+
+class CnnBackend(Protocol):
+    def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
+
+
+class BudgetSpent(Exception):
+    """Raised by a scorer when a call would exceed its ``Budget``."""
+
+
+@dataclass(frozen=True)
+class Budget:
+    """At most ``max_simulations`` fresh simulations and ``max_seconds`` of wall time (None: no
+    limit). The clock starts when the scorer is forked or created."""
+
+    max_simulations: int | None = None
+    max_seconds: float | None = None
+
+
+class LocalSimulator:
+    """``rap.sim.simulator.simulate`` in this process, sequentially (``simulate`` replaceable)."""
+
+    def __init__(self, simulate: Callable | None = None):
+        self._simulate = simulate
+
+    def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
+        if self._simulate is None:
+            from rap.sim.simulator import simulate
+
+            self._simulate = simulate
+        out = []
+        for op in ops:
+            res = self._simulate(problem.assembly, op, problem.params,
+                                 np.random.default_rng(problem.seed(op)))
+            out.append(CachedScore(float(res.score), int(res.successes), int(res.trials)))
+        return out
+
+
+class PredictorCnn:
+    """A loaded robustness CNN (``rap.model.predict.Predictor``) plus the renderer.
+
+    ``render(assembly, op, size=64) -> uint8 [2, 64, 64]`` defaults to
+    ``rap.render.images.render_pair``."""
+
+    def __init__(self, predictor, render: Callable | None = None):
+        self.predictor = predictor
+        self._render = render
+        self._lock = threading.Lock()  # one forward pass at a time (torch threads are shared)
+        self.render_seconds = 0.0
+
+    @classmethod
+    def load(cls, path: str | Path, device: str = "cpu") -> "PredictorCnn":
+        from rap.model.predict import Predictor
+
+        return cls(Predictor.load(path, device=device))
+
+    def images(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        if self._render is None:
+            from rap.render.images import render_pair
+
+            self._render = render_pair
+        if not ops:
+            return np.zeros((0, 2, IMAGE_SIZE, IMAGE_SIZE), np.uint8)
+        return np.stack([np.asarray(self._render(problem.assembly, op, size=IMAGE_SIZE), np.uint8)
+                         for op in ops])
+
+    def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        t = time.perf_counter()
+        images = self.images(problem, ops)
+        self.render_seconds += time.perf_counter() - t
+        with self._lock:
+            return np.asarray(self.predictor.prob_high(images), dtype=np.float64)
+
+
+@dataclass
+class ScorerStats:
+    sim_requested: int = 0  # operations whose score was asked for
+    sim_run: int = 0  # operations simulated fresh (cache misses)
+    cache_hits: int = 0
+    sim_calls: int = 0  # backend calls (batches)
+    sim_seconds: float = 0.0
+    cnn_batches: int = 0
+    cnn_ops: int = 0
+    cnn_seconds: float = 0.0
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass
+class Scorer:
+    """Cached simulator scores and CNN probabilities for planners (see module doc)."""
+
+    simulator: SimBackend
+    cnn: CnnBackend | None = None
+    cache: ScoreCache = field(default_factory=ScoreCache)
+    budget: Budget = field(default_factory=Budget)
+    stats: ScorerStats = field(default_factory=ScorerStats)
+    started: float = field(default_factory=time.perf_counter)
+
+    def fork(self, budget: Budget | None = None, cache: ScoreCache | None = None) -> "Scorer":
+        """Same backends (and cache, unless given), fresh counters and clock."""
+        return Scorer(self.simulator, self.cnn, self.cache if cache is None else cache,
+                      self.budget if budget is None else budget)
+
+    def _check_time(self) -> None:
+        b = self.budget
+        if b.max_seconds is not None and time.perf_counter() - self.started > b.max_seconds:
+            raise BudgetSpent(f"time budget of {b.max_seconds:g} s spent")
+
+    def scores(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[float]:
+        """Simulator scores of ``ops`` in input order (cached; misses in one backend call)."""
+        return [c.score for c in self.results(problem, ops)]
+
+    def results(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
+        self._check_time()
+        ops = list(ops)
+        keys = [problem.key(op) for op in ops]
+        found = self.cache.get_many(keys)
+        missing: dict[str, Operation] = {}
+        for k, op, c in zip(keys, ops, found):
+            if c is None:
+                missing.setdefault(k, op)
+        st = self.stats
+        st.sim_requested += len(ops)
+        st.cache_hits += len(ops) - sum(1 for c in found if c is None)
+        if missing:
+            b = self.budget
+            if b.max_simulations is not None and st.sim_run + len(missing) > b.max_simulations:
+                raise BudgetSpent(f"simulation budget of {b.max_simulations} spent")
+            t = time.perf_counter()
+            fresh = self.simulator.simulate_many(problem, list(missing.values()))
+            st.sim_seconds += time.perf_counter() - t
+            st.sim_calls += 1
+            st.sim_run += len(missing)
+            if len(fresh) != len(missing):
+                raise RuntimeError("simulator backend returned a wrong number of results")
+            new = dict(zip(missing, fresh))
+            self.cache.put_many(new.items())
+            found = [c if c is not None else new[k] for k, c in zip(keys, found)]
+        return found  # type: ignore[return-value]
+
+    def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        """The CNN's P(high) for each operation, one batch. Raises when no CNN is loaded."""
+        if self.cnn is None:
+            raise RuntimeError("this scorer has no CNN (load a model for method rap)")
+        self._check_time()
+        t = time.perf_counter()
+        p = np.asarray(self.cnn.prob_high(problem, list(ops)), dtype=np.float64)
+        self.stats.cnn_seconds += time.perf_counter() - t
+        self.stats.cnn_batches += 1
+        self.stats.cnn_ops += len(ops)
+        if p.shape != (len(ops),):
+            raise RuntimeError(f"CNN returned shape {p.shape} for {len(ops)} operations")
+        return p
+
+
+def model_familiarity(meta: dict, geometry_hash: str, images: np.ndarray,
+                      z_limit: float = 3.0, coarse_limit: float = 0.15) -> list[str]:
+    """Warnings (text) when an assembly is far from what a CNN was trained on, from the
+    checkpoint's metadata ``{"assemblies": [...], "image_stats": {...}}`` and the rendered images
+    of the assembly's candidate operations: per channel, the z-score of the mean foreground
+    fraction against the training images, and the mean difference of the coarse 8x8 foreground
+    maps. Also says when the assembly itself was in the training data (estimates are optimistic)."""
+    notes = []
+    trained = meta.get("assemblies") or []
+    names = [a.get("name", "?") for a in trained]
+    for a in trained:
+        h = a.get("geometry_hash")
+        if h == geometry_hash or (isinstance(h, list) and geometry_hash in h):
+            notes.append(f"this assembly ({a.get('name')}) was in the model's training data: its "
+                         f"predictions are not a test of generalisation")
+    ref = meta.get("image_stats") or {}
+    if len(images) and ref.get("foreground_mean") and ref.get("coarse_foreground") is not None:
+        from rap.model.data import image_stats
+
+        new = image_stats([np.asarray(images, dtype=np.uint8)])
+        z = [(m - rm) / rs if rs > 0 else 0.0 for m, rm, rs in
+             zip(new["foreground_mean"], ref["foreground_mean"], ref["foreground_std"])]
+        coarse = float(np.abs(np.asarray(new["coarse_foreground"])
+                              - np.asarray(ref["coarse_foreground"])).mean())
+        if max(abs(v) for v in z) > z_limit or coarse > coarse_limit:
+            notes.append(f"this assembly looks unlike the model's training data (foreground "
+                         f"z-scores {', '.join(f'{v:+.1f}' for v in z)}; coarse layout difference "
+                         f"{coarse:.2f}; trained on: {', '.join(names) or 'unknown'}): expect "
+                         f"more simulator fallbacks or less robust choices")
+    return notes

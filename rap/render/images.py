@@ -1,0 +1,138 @@
+"""Start/goal image pairs of assembly operations for the CNN (Pillow + numpy; no torch, no pymunk).
+
+``render_pair(assembly, operation, params=None, size=64) -> uint8 [2, size, size]``: channel 0 is
+the start configuration (the moving subassembly at its start offset, ``rap.sim.placement``), channel
+1 the goal (assembled) configuration, both in one frame that fits the union of start and goal with
+a margin. The view is rotated so that the moving subassembly translates DOWNWARD in the image (rows
+increase downward): the paper's normalisation, so a CNN sees every operation in the same
+orientation. Fixed parts are drawn at ``FIXED`` (255), moving parts at ``MOVING`` (128) on black
+(0). Anti-aliased: drawn at ``SUPERSAMPLE`` x the size with ``ImageDraw.polygon`` (holes drawn in
+background colour; parts drawn largest box first, so a part lying in another's hole stays) and
+reduced with a box filter. Deterministic: the same input gives the same bytes.
+
+Cost: O(vertices) per image plus the rasterisation of a (4 size)^2 canvas.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+from rap.assembly import Assembly
+from rap.operation import Operation
+from rap.sim.params import DEFAULT_PARAMS
+from rap.sim.placement import placement
+
+__all__ = ["render_pair", "render_many", "render_masks", "render_start_goal_png", "view_transform", "FIXED",
+           "MOVING", "SUPERSAMPLE", "MARGIN"]
+
+FIXED = 255
+MOVING = 128
+SUPERSAMPLE = 4
+MARGIN = 0.06  # fraction of the image left free on each side
+
+
+def _rotation(direction: tuple[float, float]) -> tuple[float, float, float, float]:
+    """Rotation (y-up coordinates) taking ``direction`` to (0, -1): image-down."""
+    theta = -math.pi / 2 - math.atan2(direction[1], direction[0])
+    c, s = math.cos(theta), math.sin(theta)
+    return c, -s, s, c
+
+
+def _parts(assembly: Assembly, ids: Iterable[str]):
+    return [assembly.part(i) for i in sorted(ids)]
+
+
+def view_transform(assembly: Assembly, operation: Operation, params=None, size: int = 64):
+    """``(to_pixel, offset)``: a function mapping an (N, 2) array of assembly points (moving
+    points already translated) to image pixel coordinates (x right, y down) at ``size``, and the
+    start offset of the moving subassembly (assembly units)."""
+    p = params if params is not None else DEFAULT_PARAMS
+    pl = placement(assembly, operation, p.start_gap)
+    a, b, c, d = _rotation(operation.direction)
+    R = np.array([[a, b], [c, d]])
+    off = np.array(pl.start_offset)
+    fixed = np.array([xy for part in _parts(assembly, operation.fixed) for xy in part.float_outer()])
+    moving = np.array([xy for part in _parts(assembly, operation.moving) for xy in part.float_outer()])
+    pts = np.concatenate([fixed, moving, moving + off]) @ R.T
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = max(hi[0] - lo[0], hi[1] - lo[1])
+    k = size * (1 - 2 * MARGIN) / span
+    mid = (lo + hi) / 2
+
+    def to_pixel(xy: np.ndarray) -> np.ndarray:
+        q = (np.asarray(xy, dtype=float) @ R.T - mid) * k
+        return np.stack([size / 2 + q[:, 0], size / 2 - q[:, 1]], axis=1)
+
+    return to_pixel, tuple(off)
+
+
+def _draw(layers, size: int) -> np.ndarray:
+    """Rasterise ``[(value, part, translation)]`` anti-aliased; returns uint8 [size, size]."""
+    big = size * SUPERSAMPLE
+    img = Image.new("L", (big, big), 0)
+    draw = ImageDraw.Draw(img)
+    items = []
+    for value, part, shift, to_pixel in layers:
+        outer = to_pixel(np.array(part.float_outer()) + shift) * SUPERSAMPLE
+        holes = [to_pixel(np.array(h) + shift) * SUPERSAMPLE for h in part.float_holes()]
+        area = float(np.prod(outer.max(axis=0) - outer.min(axis=0)))
+        items.append((-area, part.id, value, outer, holes))
+    items.sort(key=lambda t: (t[0], t[1]))
+    for _, _, value, outer, holes in items:
+        draw.polygon([tuple(p) for p in outer.tolist()], fill=value)
+        for h in holes:
+            draw.polygon([tuple(p) for p in h.tolist()], fill=0)
+    return np.asarray(img.resize((size, size), Image.BOX), dtype=np.uint8)
+
+
+def render_pair(assembly: Assembly, operation: Operation, params=None, size: int = 64) -> np.ndarray:
+    """uint8 [2, size, size]: start (channel 0) and goal (channel 1), motion pointing down."""
+    to_pixel, off = view_transform(assembly, operation, params, size)
+    zero = np.zeros(2)
+    shift = np.array(off)
+    fixed = [(FIXED, part, zero, to_pixel) for part in _parts(assembly, operation.fixed)]
+    mov = _parts(assembly, operation.moving)
+    start = _draw(fixed + [(MOVING, part, shift, to_pixel) for part in mov], size)
+    goal = _draw(fixed + [(MOVING, part, zero, to_pixel) for part in mov], size)
+    return np.stack([start, goal])
+
+
+def render_masks(assembly: Assembly, operation: Operation, params=None, size: int = 64) -> np.ndarray:
+    """float [2, 2, size, size] in [0, 1]: (start, goal) x (fixed, moving) coverage, same frame as
+    ``render_pair`` (for tests and analysis)."""
+    to_pixel, off = view_transform(assembly, operation, params, size)
+    zero, shift = np.zeros(2), np.array(off)
+    out = np.zeros((2, 2, size, size))
+    for ch, sh in ((0, shift), (1, zero)):
+        out[ch, 0] = _draw([(255, p, zero, to_pixel) for p in _parts(assembly, operation.fixed)],
+                           size) / 255.0
+        out[ch, 1] = _draw([(255, p, sh, to_pixel) for p in _parts(assembly, operation.moving)],
+                           size) / 255.0
+    return out
+
+
+def render_many(assembly: Assembly, operations: Sequence[Operation], params=None,
+                size: int = 64) -> np.ndarray:
+    """uint8 [N, 2, size, size] for many operations of one assembly."""
+    out = np.empty((len(operations), 2, size, size), dtype=np.uint8)
+    for i, op in enumerate(operations):
+        out[i] = render_pair(assembly, op, params, size)
+    return out
+
+
+def render_start_goal_png(assembly: Assembly, operation: Operation, path: str | Path, params=None,
+                          size: int = 256) -> Path:
+    """Write the pair side by side (start | goal) as a greyscale PNG for people; returns the path."""
+    pair = render_pair(assembly, operation, params, size)
+    gap = max(2, size // 32)
+    canvas = np.full((size, 2 * size + gap), 64, dtype=np.uint8)
+    canvas[:, :size] = pair[0]
+    canvas[:, size + gap:] = pair[1]
+    path = Path(path)
+    Image.fromarray(canvas, mode="L").save(path, format="PNG")
+    return path

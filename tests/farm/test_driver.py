@@ -1,0 +1,208 @@
+"""The labelling driver end to end: dataset contents and readers, resume, interruption, workers."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pyarrow.dataset as pads
+import pytest
+
+from rap.dataset import METADATA_FILE, SCHEMA, decode_images, open_dataset, read_meta
+
+from tests.farm.conftest import ASSEMBLIES, FAKE, REAL, ROOT, ray_env
+
+pytestmark = pytest.mark.ray
+
+TWO = (str(ASSEMBLIES / "grid.json"), str(ASSEMBLIES / "triangles.json"))
+
+
+def cfg(out, **kw):
+    from rap.farm.driver import LabelConfig
+
+    base = dict(assemblies=TWO, out=str(out), trials=3, seed=11, max_ops_per_assembly=10,
+                backend=REAL, progress=False, flush_rows=4, workers=2)
+    base.update(kw)
+    return LabelConfig(**base)
+
+
+def table(out):
+    """The dataset as a comparable list of rows (without the node column), sorted by key."""
+    t = open_dataset(out).to_table().drop_columns(["node"]).sort_by("key")
+    return t.to_pylist()
+
+
+@pytest.fixture(scope="module")
+def reference(ray_local, tmp_path_factory):
+    """An uninterrupted run (stand-in enumeration while the geometry layer is missing)."""
+    import rap.farm.driver as driver
+    from tests.farm import standin
+    from tests.farm.conftest import HAVE_GEOMETRY
+
+    mp = pytest.MonkeyPatch()
+    if not HAVE_GEOMETRY:
+        mp.setattr(driver, "enumerate_operations", standin.operations)
+    out = tmp_path_factory.mktemp("ref") / "ds"
+    s = driver.run_label(cfg(out))
+    mp.undo()
+    return out, s
+
+
+def test_dataset_rows_schema_and_readers(reference, ray_local):
+    out, s = reference
+    assert s.labelled == s.total == 20 and s.existing == 0 and s.duplicates == 0
+    ds = pads.dataset(str(out), format="parquet", exclude_invalid_files=True)
+    t = ds.to_table()
+    assert t.num_rows == 20
+    assert open_dataset(out).schema.equals(SCHEMA, check_metadata=False)
+    assert set(t.column("assembly").to_pylist()) == {"grid", "triangles"}
+    assert sorted((out).iterdir())[0].name == METADATA_FILE or (out / METADATA_FILE).exists()
+    imgs = decode_images(open_dataset(out).to_table(columns=["image"]).column("image"))
+    assert imgs.shape == (20, 2, 64, 64)
+    rows = t.to_pylist()
+    for r in rows:
+        assert r["trials"] == 3 and 0 <= r["successes"] <= 3
+        assert r["score"] == r["successes"] / r["trials"]
+        assert json.loads(r["params"])["trials"] == 3
+        assert r["node"] and r["code_version"]
+    assert len({r["key"] for r in rows}) == 20
+    meta = read_meta(out)
+    assert meta.root_seed == 11 and meta.params["trials"] == 3 and "label" in meta.command
+
+    import pandas as pd
+
+    df = pd.read_parquet(out)
+    assert len(df) == 20 and set(df["assembly"]) == {"grid", "triangles"}
+    rd = ray_local.data.read_parquet(str(out), file_extensions=["parquet"])
+    assert rd.count() == 20
+    assert set(rd.select_columns(["assembly"]).unique("assembly")) == {"grid", "triangles"}
+
+
+def test_resume_adds_nothing_twice(reference, ray_local, standin_enum, tmp_path):
+    import rap.farm.driver as driver
+
+    out = tmp_path / "copy"
+    shutil.copytree(reference[0], out)
+    before = table(out)
+    s = driver.run_label(cfg(out))
+    assert s.labelled == 0 and s.existing == 20
+    assert table(out) == before
+    # a bigger sample only adds the new operations (the sample for 10 is inside the one for 12)
+    s = driver.run_label(cfg(out, max_ops_per_assembly=12))
+    assert s.labelled == 4 and s.existing == 20
+    after = table(out)
+    assert len(after) == 24 and len({r["key"] for r in after}) == 24
+    assert [r for r in after if r["key"] in {b["key"] for b in before}] == before
+
+
+def test_interrupted_then_resumed_equals_uninterrupted(reference, ray_local, standin_enum, tmp_path):
+    import rap.farm.driver as driver
+
+    out = tmp_path / "ds"
+    calls = []
+
+    def boom(summary):
+        calls.append(summary.labelled)
+        if summary.labelled >= 4:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        driver.run_label(cfg(out, workers=1), on_batch=boom)
+    partial = table(out)
+    assert 4 <= len(partial) < 20  # committed on the way out
+    assert not list(out.glob("*/.tmp-*"))
+    s = driver.run_label(cfg(out, workers=2))
+    assert s.existing == len(partial) and s.labelled == 20 - len(partial)
+    assert table(out) == table(reference[0])  # same rows, same scores
+
+
+def test_scores_do_not_depend_on_worker_count(reference, ray_local, standin_enum, tmp_path):
+    import rap.farm.driver as driver
+
+    out = tmp_path / "one"
+    driver.run_label(cfg(out, workers=1, batch_size=7, flush_rows=100))
+    assert table(out) == table(reference[0])
+
+
+_KILL_SCRIPT = r"""
+import sys, dataclasses
+sys.path.insert(0, {root!r})
+import ray
+ray.init(address={address!r}, runtime_env={{"env_vars": {{"PYTHONPATH": {root!r}}}}},
+         log_to_driver=False)
+import rap.farm.driver as driver
+from tests.farm import standin
+from tests.farm.conftest import FAKE
+driver.enumerate_operations = standin.operations
+cfg = driver.LabelConfig(assemblies={assemblies!r}, out={out!r}, trials=3, seed=5, backend=FAKE,
+                         progress=False, flush_rows=3, workers=2, batch_size=1,
+                         params_factory="tests.farm.standin:slow_params")
+driver.run_label(cfg)
+"""
+
+
+def test_driver_sigkill_leaves_no_partial_files_and_rerun_completes(ray_local, fake_enum, tmp_path):
+    """SIGKILL the driver mid-run (it joined this module's cluster), then rerun to completion."""
+    import rap.farm.driver as driver
+
+    address = ray_local.get_runtime_context().gcs_address
+    out = tmp_path / "killed"
+    script = _KILL_SCRIPT.format(root=str(ROOT), assemblies=TWO, out=str(out), address=address)
+    proc = subprocess.Popen([sys.executable, "-c", script], env=ray_env(), cwd=str(ROOT),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.time() + 90
+        while time.time() < deadline and len(list(out.glob("*/part-*.parquet"))) < 2:
+            assert proc.poll() is None, proc.stderr.read().decode()[-2000:]
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    n_partial = open_dataset(out).count_rows()
+    from rap.assembly import load_assembly
+
+    total = sum(len(fake_enum.operations(load_assembly(p))) for p in TWO)
+    assert 0 < n_partial < total
+    # every visible shard is complete and readable
+    for f in out.glob("*/part-*.parquet"):
+        pads.dataset(str(f), format="parquet").to_table()
+    c = dataclasses.replace(cfg(out), seed=5, trials=3, max_ops_per_assembly=None, backend=FAKE,
+                            flush_rows=50, params_factory="tests.farm.standin:slow_params")
+    s = driver.run_label(c)
+    assert s.existing == n_partial
+    assert not list(out.glob("*/.tmp-*"))
+    ref = tmp_path / "ref"
+    driver.run_label(dataclasses.replace(c, out=str(ref)))
+    assert table(out) == table(ref)
+
+
+def test_cli_label_prints_summary_and_resumes(ray_local, standin_enum, monkeypatch, tmp_path, capsys):
+    """``rap-farm label`` in-process on this module's Ray (``connect`` reuses it)."""
+    import rap.farm.driver as driver
+    from rap.cli import main
+
+    run = driver.run_label
+    monkeypatch.setattr(driver, "run_label",
+                        lambda c, plan=None, **kw: run(dataclasses.replace(c, backend=REAL), plan, **kw))
+    out = tmp_path / "cli"
+    argv = ["label", TWO[0], "--out", str(out), "--preset", "tiny", "--max-ops-per-assembly", "5",
+            "--trials", "2", "--quiet"]
+    main(argv)
+    cap = capsys.readouterr()
+    assert "5 to label" in cap.err
+    assert "5 labelled now" in cap.out and "score histogram" in cap.out and "ops/s" in cap.out
+    main(argv)
+    cap = capsys.readouterr()
+    assert "5 already in" in cap.err and "0 labelled now" in cap.out
+    assert open_dataset(out).count_rows() == 5
+    assert read_meta(out).params["trials"] == 2

@@ -1,0 +1,105 @@
+"""SimPool: input order, determinism across worker counts, bounded in-flight, retries."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from rap.assembly import load_assembly
+from rap.enumerate import label_key, label_seed
+from rap.sim.params import SimParams
+
+from tests.farm import standin
+from tests.farm.conftest import ASSEMBLIES, FAKE, REAL
+
+pytestmark = pytest.mark.ray
+
+
+@pytest.fixture(scope="module")
+def grid():
+    return load_assembly(ASSEMBLIES / "grid.json")
+
+
+def test_score_input_order_and_seeds(ray_local, grid):
+    from rap.farm.pool import SimPool
+
+    ops = standin.operations(grid)[:10]
+    ops = ops + ops[:2]  # repeats get the same result
+    params = SimParams(trials=4)
+    with SimPool(2, backend=REAL, batch_size=3) as pool:
+        res = pool.score(grid, ops, params, root_seed=7)
+    assert [r.operation for r in res] == ops
+    assert res[10] == res[0] and res[11] == res[1]
+    from rap.sim.simulator import simulate
+
+    fp = params.fingerprint()
+    for op, r in zip(ops[:3], res[:3]):  # equals a direct in-process run with the derived seed
+        assert r.key == label_key(op, grid.geometry_hash, fp, 7)
+        assert r.seed == label_seed(op, grid.geometry_hash, fp, 7)
+        direct = simulate(grid, op, params, np.random.default_rng(r.seed))
+        assert (r.successes, r.trials, r.score) == (direct.successes, direct.trials, direct.score)
+
+
+def test_scores_do_not_depend_on_workers_or_batches(ray_local, grid):
+    from rap.farm.pool import SimPool
+
+    ops = standin.operations(grid)[:12]
+    params = SimParams(trials=4)
+    with SimPool(1, backend=REAL, batch_size=5) as pool:
+        one = [(r.key, r.successes) for r in pool.score(grid, ops, params, 3)]
+    with SimPool(2, backend=REAL) as pool:  # adaptive batches, two workers
+        two = [(r.key, r.successes) for r in pool.score(grid, ops, params, 3)]
+    assert one == two
+    with SimPool(2, backend=REAL) as pool:  # another root seed: other seeds
+        other = pool.score(grid, ops[:2], params, 4)
+    assert other[0].key != one[0][0]
+
+
+def test_stream_bounded_in_flight_and_lazy_input(ray_local, grid):
+    from rap.farm.pool import SimPool
+
+    params = SimParams(trials=2)
+    pulled = []
+
+    def jobs():
+        for j in SimPool.jobs(grid, standin.operations(grid), params, 1):
+            pulled.append(j.key)
+            yield j
+
+    with SimPool(2, backend=FAKE, batch_size=2, per_worker_in_flight=2) as pool:
+        seen = 0
+        for res in pool.stream(jobs(), params, images=True):
+            assert sum(pool._load) <= 4  # at most workers x per_worker_in_flight tasks
+            if seen == 0:  # first result: at most cap batches (+1 look-ahead job) were pulled
+                assert len(pulled) <= 4 * 2 + 1
+            seen += len(res.rows)
+            assert all(len(r["image"]) == 2 * 64 * 64 for r in res.rows)
+        assert seen == len(standin.operations(grid))
+        assert len(pool._refs) == 1  # the assembly was put once
+
+
+@pytest.mark.parametrize("ray_retries", [True, False], ids=["ray-restarts", "pool-resubmits"])
+def test_worker_killed_mid_run(ray_local, grid, ray_retries):
+    from rap.farm.pool import SimPool
+
+    params = SimParams(trials=2)
+    ops = standin.operations(grid) * 1
+    opts = {} if ray_retries else {"max_restarts": 0, "max_task_retries": 0}
+    with SimPool(2, backend=FAKE, batch_size=3, **opts) as pool:
+        pids = [i["pid"] for i in pool.ready()]
+        keys, killed = [], False
+        for res in pool.stream(SimPool.jobs(grid, ops, params, 5), params, images=False):
+            keys += [r["key"] for r in res.rows]
+            if not killed:
+                os.kill(pids[0], signal.SIGKILL)
+                killed = True
+        assert killed
+        assert sorted(keys) == sorted(set(keys))  # exactly once
+        assert len(keys) == len(ops)
+        if not ray_retries:
+            assert pool.stats["resubmitted"] >= 1

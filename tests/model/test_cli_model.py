@@ -1,0 +1,44 @@
+"""`rap-farm train` and `rap-farm evaluate --no-ray` end to end on a tiny synthetic dataset."""
+
+import pytest
+from typer.testing import CliRunner
+
+from rap.cli import app, main
+from rap.model.predict import Predictor
+
+
+def test_train_command_writes_a_loadable_checkpoint(tiny_dataset, tmp_path):
+    out = tmp_path / "models" / "tiny.pt"
+    res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(out), "--holdout",
+                                   "beta", "--epochs", "1", "--device", "cpu", "--seed", "3",
+                                   "--batch-size", "32"])
+    assert res.exit_code == 0, res.output
+    assert "holdout beta: accuracy" in res.output and f"wrote {out}" in res.output
+    p = Predictor.load(out)
+    assert p.training["config"]["seed"] == 3 and p.training["holdout"] == "beta"
+
+
+def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
+    out = tmp_path / "report"
+    res = CliRunner().invoke(app, ["evaluate", str(tiny_dataset), "--out", str(out), "--epochs",
+                                   "1", "--no-ray", "--device", "cpu", "--no-save-models"])
+    assert res.exit_code == 0, res.output
+    assert "mean accuracy" in res.output
+    for name in ("table.md", "table.csv", "folds.json", "crossval.png"):
+        assert (out / name).stat().st_size > 0
+    assert not (out / "models").exists()
+    assert (out / "table.md").read_text().count("\n| ") == 1 + 3 + 1 + 1 + 10  # header, folds, mean; header, bins
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["train", "{missing}"], "no such dataset directory"),
+    (["train", "{tiny}", "--holdout", "nope"], "no such assembly"),
+    (["train", "{tiny}", "--device", "tpu"], "unknown device"),
+])
+def test_cli_errors_are_one_line_with_status_2(argv, message, tiny_dataset, tmp_path, capsys):
+    argv = [a.format(missing=tmp_path / "missing", tiny=tiny_dataset) for a in argv]
+    with pytest.raises(SystemExit) as exc:
+        main(argv + ["--out", str(tmp_path / "m.pt"), "--epochs", "1"])
+    err = capsys.readouterr().err.strip()
+    assert exc.value.code == 2 and message in err and "\n" not in err
+    assert not (tmp_path / "m.pt").exists()

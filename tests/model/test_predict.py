@@ -1,0 +1,37 @@
+import numpy as np
+import pytest
+
+from model_fixtures import FAST_TRAIN, TINY_MODEL, synthetic_image
+from rap.model.predict import Predictor
+from rap.model.train import train
+
+
+@pytest.fixture(scope="module")
+def predictor(tiny_dataset, tmp_path_factory):
+    path = train(tiny_dataset, holdout="beta", model_config=TINY_MODEL, config=FAST_TRAIN).save(
+        tmp_path_factory.mktemp("pred") / "m.pt")
+    return Predictor.load(path, device="cpu")
+
+
+def test_prob_high_one_batch(predictor):
+    rng = np.random.default_rng(0)
+    images = np.stack([synthetic_image(rng, i % 2 == 0, 10, 40) for i in range(7)])
+    p = predictor.prob_high(images)
+    assert p.shape == (7,) and p.dtype == np.float64 and ((0 <= p) & (p <= 1)).all()
+    np.testing.assert_allclose(predictor.prob_high(images[:3]), p[:3], atol=1e-6)
+    assert np.array_equal(predictor.is_high(images), p >= 0.5)
+    assert predictor.prob_high(np.zeros((0, 2, 64, 64), np.uint8)).shape == (0,)
+    with pytest.raises(ValueError):
+        predictor.prob_high(images.astype(np.float32))
+    with pytest.raises(ValueError):
+        predictor.prob_high(images[:, :1])
+
+
+def test_training_data_metadata(predictor):
+    assert predictor.trained_on("geom-alpha") and not predictor.trained_on("geom-beta")
+    rng = np.random.default_rng(1)
+    alike = np.stack([synthetic_image(rng, i % 3 == 0, 10, 40) for i in range(30)])
+    far = np.full((30, 2, 64, 64), 255, np.uint8)
+    near, away = predictor.shift(alike), predictor.shift(far)
+    assert max(map(abs, near["foreground_z"])) < 2 < min(map(abs, away["foreground_z"]))
+    assert near["coarse_difference"] < away["coarse_difference"]

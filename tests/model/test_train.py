@@ -1,0 +1,64 @@
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import torch
+
+from model_fixtures import FAST_TRAIN, TINY_MODEL
+from rap.errors import InputError
+from rap.model.data import InMemoryBatches, StreamingBatches, make_batches, select
+from rap.model.train import TrainConfig, train
+
+
+def _weights(result):
+    return {k: v.clone() for k, v in result.model.state_dict().items()}
+
+
+def test_trains_a_step_or_two_and_reports_progress(tiny_dataset):
+    events = []
+    r = train(tiny_dataset, model_config=TINY_MODEL, config=replace(FAST_TRAIN, epochs=1, batch_size=64),
+              on_step=events.append)
+    assert [e["step"] for e in events] == [1, 2, 3]  # 144 rows in batches of 64
+    assert events[-1]["steps"] == 3 and 0 <= events[-1]["accuracy"] <= 1
+    assert r.metrics["train"]["rows"] == 144 and "holdout" not in r.metrics
+    assert r.training["class_counts"] == [96, 48]
+    assert r.training["class_weights"] == pytest.approx([144 / 192, 144 / 96])  # balanced
+
+
+def test_fixed_seed_is_reproducible_and_leaves_global_rng_alone(tiny_dataset):
+    torch.manual_seed(123)
+    state = torch.get_rng_state()
+    a = _weights(train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN))
+    assert torch.equal(torch.get_rng_state(), state)
+    b = _weights(train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN))
+    c = _weights(train(tiny_dataset, model_config=TINY_MODEL, config=replace(FAST_TRAIN, seed=1)))
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    assert not all(torch.equal(a[k], c[k]) for k in a)
+
+
+def test_streaming_batches_cover_every_row_once_reproducibly(tiny_dataset):
+    sel = select(tiny_dataset, exclude=("beta",))
+    mem = make_batches(sel, 0.95, 10, max_memory_mb=100)
+    stream = make_batches(sel, 0.95, 10, max_memory_mb=0.2)  # 25 rows in memory at most
+    assert isinstance(mem, InMemoryBatches) and isinstance(stream, StreamingBatches)
+    epochs = [list(stream.epoch(np.random.default_rng(s))) for s in (0, 0, 1)]
+    imgs = [np.concatenate([b[0] for b in e]) for e in epochs]
+    assert len(imgs[0]) == len(mem) == 96
+    assert np.array_equal(imgs[0], imgs[1]) and not np.array_equal(imgs[0], imgs[2])
+    key = lambda a: sorted(x.tobytes() for x in a)  # noqa: E731
+    assert key(imgs[0]) == key(mem.images)
+    assert sum(int(b[1].sum()) for b in epochs[0]) == int(mem.labels.sum())
+
+
+def test_streaming_training_runs(tiny_dataset):
+    r = train(tiny_dataset, model_config=TINY_MODEL, config=replace(FAST_TRAIN, max_memory_mb=0.2))
+    assert r.metrics["train"]["rows"] == 144
+
+
+def test_unknown_holdout_and_bad_options(tiny_dataset, tmp_path):
+    with pytest.raises(InputError, match="no such assembly"):
+        train(tiny_dataset, holdout="delta", model_config=TINY_MODEL, config=FAST_TRAIN)
+    with pytest.raises(InputError, match="no such dataset"):
+        train(tmp_path / "none", model_config=TINY_MODEL, config=FAST_TRAIN)
+    with pytest.raises(InputError):
+        TrainConfig(epochs=0)

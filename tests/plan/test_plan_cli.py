@@ -1,0 +1,77 @@
+"""``rap-farm plan`` end to end in a subprocess (no Ray): output file, picture, exit statuses."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from tests.plan.cases import FRAMED_HOLE, ROOT, ROW3, write
+
+
+def run(*args, tmp_path):
+    env = dict(os.environ, RAP_CACHE=str(tmp_path / "cache.json"), PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-c", "from rap.cli import main; main()", "plan", *map(str, args)],
+                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
+
+
+def test_interlocked_assembly_exits_1_and_names_the_parts(tmp_path):
+    src = write(FRAMED_HOLE, tmp_path / "framed.json")
+    out = tmp_path / "plan.json"
+    p = run(src, "--method", "sim", "--no-ray", "--trials", "8", "--out", out, tmp_path=tmp_path)
+    assert p.returncode == 1, p.stderr
+    assert "frame" in p.stderr and "plug" in p.stderr and "interlocked" in p.stderr
+    assert "Traceback" not in p.stderr
+    doc = json.loads(out.read_text())
+    assert doc["feasible"] is False and doc["interlocked"] == ["frame", "plug"]
+
+
+def test_plan_writes_the_documented_json_and_a_storyboard(tmp_path):
+    src = write(ROW3, tmp_path / "row3.json")
+    out, pic = tmp_path / "plan.json", tmp_path / "plan.png"
+    p = run(src, "--method", "sim", "--no-ray", "--trials", "8", "--out", out, "--picture", pic,
+            tmp_path=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert "robustness R" in p.stdout and "sim" in p.stdout
+    doc = json.loads(out.read_text())
+    assert list(doc) == ["assembly", "method", "feasible", "robustness", "steps", "seconds"]
+    assert doc["assembly"] == "row3" and doc["method"] == "sim" and doc["feasible"] is True
+    assert len(doc["steps"]) == 2
+    for s in doc["steps"]:
+        assert list(s) == ["moving", "fixed", "direction", "score", "source", "confidence"]
+        assert s["source"] == "sim" and s["confidence"] is None and 0 <= s["score"] <= 1
+    r = 1.0
+    for s in doc["steps"]:
+        r *= s["score"]
+    assert doc["robustness"] == pytest.approx(r)
+    assert pic.stat().st_size > 1000
+    assert (tmp_path / "cache.json").is_file()
+
+
+@pytest.mark.parametrize("args,needle", [
+    (("missing.json",), "no such file"),
+    (("{row3}", "--method", "best"), "--method"),
+    (("{row3}", "--picture", "x.gif"), "--picture"),
+    (("{row3}", "--model", "nope.pt"), "nope.pt"),
+])
+def test_invalid_input_exits_2_with_one_line(tmp_path, args, needle):
+    src = write(ROW3, tmp_path / "row3.json")
+    args = [a.replace("{row3}", str(src)) for a in args]
+    p = run(*args, "--no-ray", tmp_path=tmp_path)
+    assert p.returncode == 2, (p.stdout, p.stderr)
+    assert needle in p.stderr and len(p.stderr.strip().splitlines()) == 1
+
+
+def test_without_a_model_rap_says_so_and_uses_the_simulator(tmp_path):
+    from rap.commands.plan import default_model_path
+
+    if default_model_path().is_file():
+        pytest.skip("a default model is shipped")
+    src = write(ROW3, tmp_path / "row3.json")
+    p = run(src, "--no-ray", "--trials", "8", "--out", tmp_path / "p.json", tmp_path=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert "default model" in p.stderr and "--method sim" in p.stderr
+    assert json.loads((tmp_path / "p.json").read_text())["method"] == "sim"

@@ -1,0 +1,66 @@
+"""Parsing of assembly files: exact decimals, ring normalisation, JSON round trip."""
+
+from __future__ import annotations
+
+import json
+from decimal import Decimal
+from fractions import Fraction
+
+import pytest
+
+from rap.assembly import (AssemblyError, assembly_to_json, load_assembly, parse_assembly,
+                          signed_area2)
+
+
+def _sq(x, y, s=1):
+    return [[x, y], [x + s, y], [x + s, y + s], [x, y + s]]
+
+
+def test_decimals_are_exact(tmp_path):
+    p = tmp_path / "d.json"
+    p.write_text('{"parts": [{"id": "a", "polygon": [[0, 0], [0.1, 0], [0.1, 0.2], [0, 0.2]]}]}')
+    a = load_assembly(p)
+    assert a.name == "d"
+    assert a.parts[0].outer[1] == (Fraction(1, 10), 0)
+    assert a.parts[0].area() == Fraction(1, 50)
+
+
+def test_rings_are_normalised():
+    cw = list(reversed(_sq(0, 0, 4)))
+    a = parse_assembly({"parts": [{"id": "a", "polygon": cw, "holes": [_sq(1, 1)]}]})
+    p = a.parts[0]
+    assert signed_area2(p.outer) > 0 and signed_area2(p.holes[0]) < 0
+    assert p.area() == 15
+
+
+def test_closed_ring_is_tolerated():
+    ring = _sq(0, 0) + [[0, 0]]
+    assert len(parse_assembly({"parts": [{"id": "a", "polygon": ring}]}).parts[0].outer) == 4
+
+
+def test_round_trip_of_decimals(tmp_path):
+    text = '{"name": "t", "parts": [{"id": "a", "polygon": [[0, 0], [0.1, 0], [0.1, 0.3], [0, 0.3]]}]}'
+    a = parse_assembly(json.loads(text, parse_float=Decimal))
+    out = tmp_path / "t.json"
+    out.write_text(json.dumps(assembly_to_json(a)))
+    b = load_assembly(out)
+    assert b.parts == a.parts and b.geometry_hash == a.geometry_hash
+
+
+def test_geometry_hash_ignores_name():
+    a = parse_assembly({"name": "x", "parts": [{"id": "a", "polygon": _sq(0, 0)}]})
+    b = parse_assembly({"name": "y", "parts": [{"id": "a", "polygon": _sq(0, 0)}]})
+    assert a.geometry_hash == b.geometry_hash
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(AssemblyError, match="no such file"):
+        load_assembly(tmp_path / "nope.json")
+
+
+def test_validation_runs_on_parse():
+    with pytest.raises(AssemblyError, match="overlaps part 'b'"):
+        parse_assembly({"parts": [{"id": "a", "polygon": _sq(0, 0, 2)},
+                                  {"id": "b", "polygon": _sq(1, 1, 2)}]})
+    parse_assembly({"parts": [{"id": "a", "polygon": _sq(0, 0, 2)},
+                              {"id": "b", "polygon": _sq(1, 1, 2)}]}, validate=False)
