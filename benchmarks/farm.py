@@ -47,7 +47,7 @@ def rss_mib() -> float:
     return float("nan")
 
 
-def blank_render(assembly, operation, size: int = 64):
+def blank_render(assembly, operation, params=None, size: int = 64):
     """Used only while ``rap.render.images`` does not exist: the rows still carry 8 KiB images."""
     return np.zeros((2, size, size), np.uint8)
 
@@ -99,7 +99,7 @@ def main() -> None:
         simulate(a, op, params, np.random.default_rng(label_seed(op, a.geometry_hash, fp, 1)))
         sim_direct += time.perf_counter() - t
         if render is not None:
-            render(a, op, size=64)
+            render(a, op, params=params, size=64)
     direct_s = time.perf_counter() - t0
     print(f"in-process loop        {direct_s:7.2f} s  {len(work) / direct_s:7.2f} ops/s  "
           f"(simulator {sim_direct:.2f} s)")

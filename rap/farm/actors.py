@@ -39,7 +39,7 @@ class Backend:
     """Import paths (``module:attr``) of the simulator and the renderer used by the workers.
 
     ``simulate(assembly, operation, params, rng) -> SimResult(successes, trials, score, seconds)``;
-    ``render(assembly, operation, size=...) -> uint8 [2, size, size]``.
+    ``render(assembly, operation, params=..., size=...) -> uint8 [2, size, size]``.
     """
 
     simulate: str = "rap.sim.simulator:simulate"
@@ -133,7 +133,8 @@ class SimWorker:
             sim_s += t1 - t
             image = None
             if task.images:
-                image = np.ascontiguousarray(render(assembly, op, size=IMAGE_SIZE), np.uint8).tobytes()
+                pair = render(assembly, op, params=task.params, size=IMAGE_SIZE)
+                image = np.ascontiguousarray(pair, np.uint8).tobytes()
                 render_s += time.perf_counter() - t1
             rows.append({
                 "key": key,

@@ -144,6 +144,17 @@ def _plot(rows: list[dict], pooled: dict, path: Path, title: str) -> None:
     plt.close(fig)
 
 
+def _json_safe(value):
+    """NaN (an empty class) as null, so folds.json is strict JSON."""
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json_safe(v) for v in value]
+    return value
+
+
 def write_report(folds: list[dict], out_dir: str | Path, title: str, notes: dict) -> list[Path]:
     """table.md, table.csv, folds.json and crossval.png under ``out_dir``. Returns the paths."""
     out = Path(out_dir)
@@ -156,7 +167,7 @@ def write_report(folds: list[dict], out_dir: str | Path, title: str, notes: dict
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    paths[2].write_text(json.dumps({"notes": notes, "folds": folds,
-                                    "pooled_reliability": reliability_table(pooled)}, indent=2))
+    report = {"notes": notes, "folds": folds, "pooled_reliability": reliability_table(pooled)}
+    paths[2].write_text(json.dumps(_json_safe(report), indent=2, allow_nan=False))
     _plot(rows, pooled, paths[3], title)
     return paths

@@ -10,8 +10,10 @@ path, and a torque that only corrects the orientation back to the goal angle. Ac
 every control step a component perpendicular to ``F``, uniform in ``[-eta |F|, eta |F|]``, is added
 to ``F``. A trial succeeds when it is within ``pos_tol`` (fraction of the moving subassembly's
 extent) and ``angle_tol_rad`` of the goal at some control step before ``time_limit_s``; it fails
-when the time runs out, or earlier when it is hopeless: farther than ``far_off`` from the path, or
-no progress toward the goal for ``stuck_s``. Score = successes / trials.
+when the time runs out, or earlier when it is hopeless (checked every 8 control steps): farther than
+``far_off`` from the path segment, or, when ``stuck_s > 0``, no progress toward the goal for
+``stuck_s``. Hopeless rules are part of the outcome's definition; with the defaults (far_off 1.5
+world sizes, stuck off) they changed no score on the fixtures. Score = successes / trials.
 
 Speed: all trials of one operation share ONE ``pymunk.Space``; each trial has its own static body
 holding a copy of the fixed pieces and its own moving body, laid out on a grid far apart, and

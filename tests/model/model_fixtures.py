@@ -18,6 +18,9 @@ from rap.model.cnn import ModelConfig
 from rap.model.train import TrainConfig
 
 TINY_MODEL = ModelConfig(channels=(4, 8, 8, 8), hidden=(32, 16, 8), dropout=0.1)
+# big enough to learn the synthetic rule from any seed (mean held-out accuracy 0.95-0.98 over
+# seeds 0-3 at 6 epochs; TINY_MODEL fails on some seeds)
+LEARN_MODEL = ModelConfig(channels=(8, 16, 16, 16), hidden=(32, 16, 8), dropout=0.1)
 FAST_TRAIN = TrainConfig(epochs=2, batch_size=16, seed=0, device="cpu", num_threads=1)
 ASSEMBLIES = {"alpha": (10, 40), "beta": (14, 48), "gamma": (8, 32)}  # fixed block height, width
 

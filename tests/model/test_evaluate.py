@@ -5,7 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from model_fixtures import FAST_TRAIN, TINY_MODEL
+from model_fixtures import FAST_TRAIN, LEARN_MODEL
 from rap.model.evaluate import cross_validate, fold_specs, summary_rows, write_report
 from rap.model.metrics import classification_metrics, expected_calibration_error, reliability_table
 
@@ -27,7 +27,7 @@ def test_metrics_per_class_and_calibration():
 
 def test_leave_one_assembly_out_learns_the_rule(learnable_dataset, tmp_path):
     """Wide moving blocks are high, narrow ones not: held-out assemblies are classified > 90%."""
-    specs = fold_specs(learnable_dataset, TINY_MODEL, replace(FAST_TRAIN, epochs=6),
+    specs = fold_specs(learnable_dataset, LEARN_MODEL, replace(FAST_TRAIN, epochs=6),
                        models_dir=tmp_path / "models")
     folds = cross_validate(specs)
     rows = summary_rows(folds)

@@ -12,6 +12,15 @@ from rap.cli import main
 from .fixtures import ASSEMBLIES
 
 
+def run(argv) -> int:
+    """Exit status of ``rap-farm ARGV``."""
+    try:
+        main(argv)
+    except SystemExit as exc:
+        return exc.code or 0
+    return 0
+
+
 @pytest.fixture
 def tight_file(tmp_path):
     path = tmp_path / "tight.json"
@@ -21,10 +30,8 @@ def tight_file(tmp_path):
 
 def test_json_output(tight_file, tmp_path, capsys):
     gif, png = tmp_path / "t.gif", tmp_path / "t.png"
-    with pytest.raises(SystemExit) as exc:
-        main(["simulate", str(tight_file), "--moving", "peg", "--direction", "0,-1", "--trials", "6",
-              "--seed", "3", "--json", "--gif", str(gif), "--images", str(png)])
-    assert exc.value.code in (0, None)
+    assert run(["simulate", str(tight_file), "--moving", "peg", "--direction", "0,-1",
+                "--trials", "6", "--seed", "3", "--json", "--gif", str(gif), "--images", str(png)]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert set(doc) == {"score", "successes", "trials", "seconds", "params"}
     assert doc["trials"] == 6 and doc["score"] == doc["successes"] / 6
@@ -35,9 +42,8 @@ def test_json_output(tight_file, tmp_path, capsys):
 def test_same_seed_same_score(tight_file, capsys):
     scores = []
     for _ in range(2):
-        with pytest.raises(SystemExit):
-            main(["simulate", str(tight_file), "--moving", "peg", "--direction", "0,-1.0",
-                  "--trials", "8", "--json"])
+        assert run(["simulate", str(tight_file), "--moving", "peg", "--direction", "0,-1.0",
+                    "--trials", "8", "--json"]) == 0
         scores.append(json.loads(capsys.readouterr().out)["successes"])
     assert scores[0] == scores[1]
 
@@ -50,8 +56,6 @@ def test_same_seed_same_score(tight_file, capsys):
     (["--moving", "peg,slot", "--direction", "0,-1"], "fixed"),
 ])
 def test_bad_input_exits_2_with_one_line(tight_file, capsys, args, needle):
-    with pytest.raises(SystemExit) as exc:
-        main(["simulate", str(tight_file), *args, "--trials", "2"])
-    assert exc.value.code == 2
+    assert run(["simulate", str(tight_file), *args, "--trials", "2"]) == 2
     err = capsys.readouterr().err.strip()
     assert needle in err and "\n" not in err

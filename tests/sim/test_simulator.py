@@ -45,7 +45,6 @@ def _reference_operations():
 _REF = _reference_operations()
 
 
-@pytest.mark.slow
 @pytest.mark.skipif(not _REF, reason="assemblies/*.json or rap.geometry partitions not available")
 @pytest.mark.parametrize("assembly,operation", _REF)
 def test_noise_free_online_partitions_of_reference_assemblies_succeed(assembly, operation):
