@@ -159,7 +159,8 @@ def main() -> None:
               f"{dt:.1f} s, {s.rate:.1f} ops/s):")
         print(f"  RSS before {rss0:.0f} MiB, after the first flush {first:.0f} MiB, "
               f"peak {peak:.0f} MiB, at the end {rss1:.0f} MiB "
-              f"({(rss1 - first) / max(1, s.labelled - 256) * 1000:+.2f} MiB per 1000 rows after the first flush)")
+              f"({(rss1 - first) / max(1, s.labelled - 256) * 1000:+.2f} MiB per 1000 rows "
+              "after the first flush)")
     finally:
         ray.shutdown()
 

@@ -107,6 +107,13 @@ def rows_to_table(rows: Iterable[dict]) -> pa.Table:
     return pa.Table.from_pydict(cols, schema=SCHEMA)
 
 
+def _file_mode() -> int:
+    """Permissions of a committed file: 0o666 minus the process umask (``mkstemp`` makes 0o600)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def _fsync_dir(path: Path) -> None:
     try:
         fd = os.open(path, os.O_RDONLY)
@@ -134,6 +141,7 @@ def write_shard(root: str | Path, table: pa.Table) -> list[Path]:
         final = d / f"part-{uuid.uuid4().hex}.parquet"
         fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, suffix=".parquet", dir=d)
         try:
+            os.fchmod(fd, _file_mode())
             with os.fdopen(fd, "wb") as fh:
                 pq.write_table(part, fh, compression="zstd")
                 fh.flush()
@@ -164,6 +172,7 @@ def write_meta(root: str | Path, meta: DatasetMeta) -> None:
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, dir=root)
+    os.fchmod(fd, _file_mode())
     with os.fdopen(fd, "w") as fh:
         fh.write(meta.to_json())
         fh.flush()

@@ -16,7 +16,7 @@ from rap.seeds import DEFAULT_ROOT_SEED
 __all__ = ["register", "label"]
 
 PRESET_HELP = ("tiny: 20 trials, <= 12 operations per assembly (tests, demo); default: 100 trials, "
-               "<= 400 operations per assembly (a laptop training set); full: 100 trials, every "
+               "<= 2000 operations per assembly (a laptop training set); full: 100 trials, every "
                "operation. --trials and --max-ops-per-assembly override the preset.")
 
 

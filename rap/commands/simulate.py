@@ -56,11 +56,27 @@ def parse_moving(text: str, assembly) -> frozenset[str]:
     return moving
 
 
-def build_operation(assembly, moving: frozenset[str], direction: tuple[Fraction, Fraction]):
+def parse_fixed(text: str | None, assembly, moving: frozenset[str]) -> frozenset[str]:
+    """The fixed subassembly: the given ids, or every part not moving."""
+    if text is None:
+        return frozenset(assembly.ids) - moving
+    ids = frozenset(b.strip() for b in text.split(",") if b.strip())
+    unknown = sorted(ids - set(assembly.ids))
+    if unknown:
+        raise InputError(f"--fixed: no part {', '.join(map(repr, unknown))} in {assembly.name}")
+    if not ids:
+        raise InputError("--fixed: no part ids given")
+    if ids & moving:
+        raise InputError(f"--fixed and --moving share {', '.join(sorted(ids & moving))}")
+    return ids
+
+
+def build_operation(assembly, moving: frozenset[str], direction: tuple[Fraction, Fraction],
+                    fixed: frozenset[str] | None = None):
     """The ``Operation``; raises ``InputError`` when it is not feasible (exact NDBG test)."""
     from rap.operation import Operation, unit
 
-    fixed = frozenset(assembly.ids) - moving
+    fixed = frozenset(assembly.ids) - moving if fixed is None else fixed
     try:
         from rap.geometry.ndbg import build_ndbg, is_feasible_operation
     except ImportError:  # geometry layer absent: no feasibility check possible
@@ -79,6 +95,9 @@ def register(app: typer.Typer) -> None:
     def simulate_cmd(
         assembly_file: Path = typer.Argument(..., metavar="ASSEMBLY", help="Assembly JSON file."),
         moving: str = typer.Option(..., "--moving", help="Moving part ids, comma-separated."),
+        fixed: str = typer.Option(None, "--fixed",
+                                  help="Fixed part ids, comma-separated (default: every other "
+                                       "part); parts in neither are left out."),
         direction: str = typer.Option(..., "--direction",
                                       help="Assembly direction DX,DY (the moving parts travel "
                                            "along it to their place)."),
@@ -97,7 +116,7 @@ def register(app: typer.Typer) -> None:
 
         asm = load_assembly(assembly_file)
         mov = parse_moving(moving, asm)
-        op = build_operation(asm, mov, parse_direction(direction))
+        op = build_operation(asm, mov, parse_direction(direction), parse_fixed(fixed, asm, mov))
         params = SimParams(trials=trials, eta=eta)
         root = DEFAULT_ROOT_SEED if seed is None else seed
         key = op.key(asm.geometry_hash, params.fingerprint())

@@ -22,7 +22,6 @@ same command completes the dataset to exactly the rows of an uninterrupted run.
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import json
 import os
 import signal
@@ -34,14 +33,14 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 from rap.assembly import Assembly, load_assembly
-from rap.dataset import (METADATA_FILE, SCHEMA_VERSION, DatasetMeta, clean_partial_files,
+from rap.dataset import (METADATA_FILE, SCHEMA_VERSION, DatasetMeta, clean_partial_files, existing_keys,
                          open_dataset, read_meta, rows_to_table, write_meta, write_shard)
 from rap.enumerate import MODES, enumerate_operations, label_key, label_seed, sample_operations
 from rap.errors import InputError
 from rap.operation import Operation
 
 from rap.farm.actors import Backend, resolve
-from rap.farm.pool import Job, SimPool, params_json
+from rap.farm.pool import Job, SimPool
 from rap.farm.runtime import connect
 
 __all__ = ["PRESETS", "LabelConfig", "LabelPlan", "LabelSummary", "prepare", "run_label",
@@ -50,7 +49,7 @@ __all__ = ["PRESETS", "LabelConfig", "LabelPlan", "LabelSummary", "prepare", "ru
 # name -> (trials, max operations per assembly); see datasets/README.md for the sizes and times.
 PRESETS: dict[str, tuple[int, int | None]] = {
     "tiny": (20, 12),
-    "default": (100, 400),
+    "default": (100, 2000),
     "full": (100, None),
 }
 
@@ -105,7 +104,7 @@ class LabelSummary:
     labelled: int = 0  # rows committed by this run
     duplicates: int = 0  # results dropped because their key was already written
     shards: int = 0
-    seconds: float = 0.0
+    seconds: float = 0.0  # labelling (after the actors are up)
     workers: int = 0
     nodes: dict[str, int] = field(default_factory=dict)
     per_assembly: dict[str, int] = field(default_factory=dict)
@@ -113,6 +112,7 @@ class LabelSummary:
     resubmitted: int = 0
     sim_s: float = 0.0
     task_s: float = 0.0
+    startup_s: float = 0.0  # starting/joining Ray and the actors
     interrupted: bool = False
 
     @property
@@ -187,12 +187,6 @@ def _check_geometry(out: Path, assemblies: Sequence[Assembly]) -> None:
                              f"choose another --out")
 
 
-def _existing_keys_by_assembly(out: Path) -> set[str]:
-    if not any(out.glob("*/part-*.parquet")):
-        return set()
-    return set(open_dataset(out).to_table(columns=["key"]).column("key").to_pylist())
-
-
 def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) -> LabelPlan:
     """Check every input and work out what is left to label. Raises ``InputError``; writes nothing."""
     if not cfg.assemblies:
@@ -231,7 +225,7 @@ def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) ->
         raise InputError(f"invalid simulator parameters: {exc}") from None
     new = _check_meta(out, cfg.seed, params)
     _check_geometry(out, assemblies)
-    existing = _existing_keys_by_assembly(out)
+    existing = existing_keys(out)
 
     fp = params.fingerprint()
     ops: dict[str, list[Operation]] = {}
@@ -265,6 +259,27 @@ def _sigterm_as_interrupt() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGTERM, old)
+
+
+class _Uninterruptible:
+    """Defers Ctrl-C / SIGTERM until a commit (shard write + bookkeeping) is complete, so an
+    interruption can never commit rows and then lose track of them (which would write them twice)."""
+
+    def __enter__(self):
+        self._got: list[int] = []
+        self._old = None
+        if threading.current_thread() is threading.main_thread():
+            self._old = {s: signal.signal(s, lambda signum, frame: self._got.append(signum))
+                         for s in (signal.SIGINT, signal.SIGTERM)}
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if self._old is not None:
+            for s, h in self._old.items():
+                signal.signal(s, h)
+        if self._got and exc_type is None:
+            raise KeyboardInterrupt
+        return False
 
 
 def _progress(enabled: bool, total: int):
@@ -319,14 +334,15 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
     def flush() -> None:
         nonlocal last_flush
         if buffer:
-            summary.shards += len(write_shard(out, rows_to_table(buffer)))
-            summary.labelled += len(buffer)
-            for r in buffer:
-                summary.nodes[r["node"]] = summary.nodes.get(r["node"], 0) + 1
-                summary.per_assembly[r["assembly"]] = summary.per_assembly.get(r["assembly"], 0) + 1
-                b = min(HIST_BINS - 1, max(0, int(r["score"] * HIST_BINS)))
-                summary.hist[b] += 1
-            buffer.clear()
+            with _Uninterruptible():
+                summary.shards += len(write_shard(out, rows_to_table(buffer)))
+                summary.labelled += len(buffer)
+                for r in buffer:
+                    summary.nodes[r["node"]] = summary.nodes.get(r["node"], 0) + 1
+                    summary.per_assembly[r["assembly"]] = summary.per_assembly.get(r["assembly"], 0) + 1
+                    b = min(HIST_BINS - 1, max(0, int(r["score"] * HIST_BINS)))
+                    summary.hist[b] += 1
+                buffer.clear()
         last_flush = time.monotonic()
 
     with _sigterm_as_interrupt(), connect(cfg.address, num_cpus=cfg.num_cpus) as rt:
@@ -335,6 +351,9 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
         summary.workers = pool.size
         progress = _progress(cfg.progress, plan.total)
         try:
+            pool.ready()
+            summary.startup_s = time.perf_counter() - t0
+            t0 = time.perf_counter()  # the rate counts labelling time only
             with progress:
                 bar = progress.add_task("label", total=plan.total, completed=plan.existing)
                 for res in pool.stream(_jobs(plan), plan.params, images=True, total=plan.todo_count):
@@ -373,7 +392,8 @@ def format_summary(s: LabelSummary) -> str:
         f"operations   {s.total} selected, {s.existing} already present, {s.labelled} labelled now"
         + (f", {s.duplicates} duplicate results dropped" if s.duplicates else "")
         + (f", {s.resubmitted} batches resubmitted" if s.resubmitted else ""),
-        f"time         {s.seconds:.1f} s, {s.rate:.2f} ops/s with {s.workers} workers"
+        f"time         {s.seconds:.1f} s labelling (+{s.startup_s:.1f} s starting Ray), "
+        f"{s.rate:.2f} ops/s with {s.workers} workers"
         + (f" ({s.sim_s / s.task_s:.0%} of worker time in the simulator)" if s.task_s > 0 else ""),
         f"shards       {s.shards}",
     ]

@@ -10,7 +10,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pyarrow.dataset as pads
 import pytest
@@ -63,7 +62,7 @@ def test_dataset_rows_schema_and_readers(reference, ray_local):
     assert t.num_rows == 20
     assert open_dataset(out).schema.equals(SCHEMA, check_metadata=False)
     assert set(t.column("assembly").to_pylist()) == {"grid", "triangles"}
-    assert sorted((out).iterdir())[0].name == METADATA_FILE or (out / METADATA_FILE).exists()
+    assert (out / METADATA_FILE).exists()
     imgs = decode_images(open_dataset(out).to_table(columns=["image"]).column("image"))
     assert imgs.shape == (20, 2, 64, 64)
     rows = t.to_pylist()
@@ -73,6 +72,10 @@ def test_dataset_rows_schema_and_readers(reference, ray_local):
         assert json.loads(r["params"])["trials"] == 3
         assert r["node"] and r["code_version"]
     assert len({r["key"] for r in rows}) == 20
+    mask = os.umask(0)
+    os.umask(mask)
+    for f in [out / METADATA_FILE, *out.glob("*/part-*.parquet")]:  # readable like any file
+        assert f.stat().st_mode & 0o777 == 0o666 & ~mask, f
     meta = read_meta(out)
     assert meta.root_seed == 11 and meta.params["trials"] == 3 and "label" in meta.command
 

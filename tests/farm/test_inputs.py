@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from rap.cli import main
-from rap.dataset import DatasetMeta, METADATA_FILE, SCHEMA_VERSION, write_meta
+from rap.dataset import DatasetMeta, SCHEMA_VERSION, write_meta
 
 from tests.farm.conftest import ASSEMBLIES
 
