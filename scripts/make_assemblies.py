@@ -26,7 +26,9 @@ from pathlib import Path
 from shapely.geometry import Polygon, box
 from shapely.ops import unary_union
 
-OUT = Path(__file__).resolve().parents[1] / "assemblies"
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "assemblies"
+PACKAGED = ROOT / "rap" / "data" / "assemblies"  # the copies shipped in the wheel
 
 
 def ring(poly: Polygon) -> list[list[int]]:
@@ -246,10 +248,12 @@ def dumps(doc: dict) -> str:
 
 def main() -> int:
     OUT.mkdir(exist_ok=True)
+    PACKAGED.mkdir(parents=True, exist_ok=True)
     for name, make in ALL.items():
         doc = make()
         check(doc)
-        (OUT / f"{name}.json").write_text(dumps(doc))
+        for d in (OUT, PACKAGED):
+            (d / f"{name}.json").write_text(dumps(doc))
         print(f"{name}: {len(doc['parts'])} parts")
     return 0
 

@@ -138,9 +138,10 @@ class Planner(abc.ABC):
 class _Greedy(Planner):
     """Greedy assembly-by-disassembly, one level of open subassemblies at a time."""
 
+    @abc.abstractmethod
     def _select(self, problem: PlanningProblem, scorer: Scorer,
                 cands: list[tuple[Operation, ...]], stats: dict) -> list[PlanStep]:
-        raise NotImplementedError
+        """One chosen step per open subassembly, given each one's candidate operations."""
 
     def _search(self, problem, scorer, stats):
         whole = problem.whole
