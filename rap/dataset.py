@@ -48,6 +48,7 @@ __all__ = [
     "decode_images",
     "iter_batches",
     "clean_partial_files",
+    "committed_file_mode",
 ]
 
 SCHEMA_VERSION = 1
@@ -107,7 +108,7 @@ def rows_to_table(rows: Iterable[dict]) -> pa.Table:
     return pa.Table.from_pydict(cols, schema=SCHEMA)
 
 
-def _file_mode() -> int:
+def committed_file_mode() -> int:
     """Permissions of a committed file: 0o666 minus the process umask (``mkstemp`` makes 0o600)."""
     mask = os.umask(0)
     os.umask(mask)
@@ -141,7 +142,7 @@ def write_shard(root: str | Path, table: pa.Table) -> list[Path]:
         final = d / f"part-{uuid.uuid4().hex}.parquet"
         fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, suffix=".parquet", dir=d)
         try:
-            os.fchmod(fd, _file_mode())
+            os.fchmod(fd, committed_file_mode())
             with os.fdopen(fd, "wb") as fh:
                 pq.write_table(part, fh, compression="zstd")
                 fh.flush()
@@ -172,7 +173,7 @@ def write_meta(root: str | Path, meta: DatasetMeta) -> None:
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, dir=root)
-    os.fchmod(fd, _file_mode())
+    os.fchmod(fd, committed_file_mode())
     with os.fdopen(fd, "w") as fh:
         fh.write(meta.to_json())
         fh.flush()

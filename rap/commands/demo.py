@@ -51,13 +51,13 @@ def demo_command(
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors [default: all CPUs]."),
 ):
     """Label, train and plan at small scale on the local Ray; writes everything under --out."""
-    from rich.console import Console
+    from rap.commands._console import console as make_console
 
     from rap.commands.plan import print_result, write_plan_json
     from rap.errors import InputError
     from rap.plan.result import PlanStatus
 
-    console = Console()
+    console = make_console()
     src = assemblies or bundled_assemblies()
     files = sorted(Path(src).glob("*.json"))
     if not files:

@@ -47,14 +47,14 @@ def evaluate_command(
     """Train one model per held-out assembly and write accuracy tables, calibration and a plot."""
     import time
 
-    from rich.console import Console
+    from rap.commands._console import console as make_console
 
     from rap.errors import InputError
     from rap.model.cnn import ModelConfig, RobustnessCNN
     from rap.model.evaluate import cross_validate, fold_specs, summary_rows, write_report
     from rap.model.train import TrainConfig, dataset_assemblies
 
-    console = Console(stderr=True)
+    console = make_console(stderr=True)
     name = Path(dataset).resolve().name
     out = out or Path("reports") / name
     names = dataset_assemblies(dataset)

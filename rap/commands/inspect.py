@@ -101,10 +101,10 @@ def register(app: typer.Typer) -> None:
 
 
 def _human(asm, ndbg, counts) -> None:
-    from rich.console import Console
+    from rap.commands._console import console as make_console
     from rich.table import Table
 
-    con = Console()
+    con = make_console()
     parts = Table(title=f"{asm.name}: {len(asm)} parts ({asm.source})")
     for col in ("id", "vertices", "holes", "area"):
         parts.add_column(col, justify="left" if col == "id" else "right")

@@ -141,7 +141,7 @@ def plan_command(
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors [default: all CPUs]."),
 ):
     """Plan a robust assembly sequence and print it (step, parts, direction, score, source)."""
-    from rich.console import Console
+    from rap.commands._console import console as make_console
 
     from rap.assembly import load_assembly
     from rap.plan.cache import ScoreCache, default_cache_path
@@ -149,8 +149,8 @@ def plan_command(
     from rap.seeds import DEFAULT_ROOT_SEED
     from rap.sim.params import SimParams
 
-    console = Console()
-    err = Console(stderr=True)
+    console = make_console()
+    err = make_console(stderr=True)
     if method not in METHODS:
         raise InputError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
     if space not in ("online", "all"):

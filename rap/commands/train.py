@@ -45,7 +45,7 @@ def train_command(
                                 help="torch CPU threads (0: torch's default)."),
 ):
     """Train the robustness CNN (class-weighted cross-entropy, Adam) and save a checkpoint."""
-    from rich.console import Console
+    from rap.commands._console import console as make_console
 
     from rap.model.cnn import ModelConfig, RobustnessCNN
     from rap.model.train import TrainConfig, train
@@ -54,7 +54,7 @@ def train_command(
     config = TrainConfig(epochs=epochs, batch_size=batch_size, seed=seed, device=device,
                          threshold=threshold, num_threads=threads)
     model_config = ModelConfig()
-    console = Console(stderr=True)
+    console = make_console(stderr=True)
     bar, on_step = progress_bar(console)
     with bar:
         result = train(dataset, holdout=holdout, model_config=model_config, config=config,

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from rap.dataset import committed_file_mode
 from rap.errors import InputError
 from rap.model.cnn import ModelConfig, RobustnessCNN
 
@@ -87,6 +88,7 @@ def save_checkpoint(path: str | Path, model: RobustnessCNN, *, threshold: float,
             "state_dict": {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}}
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".pt", dir=path.parent)
+    os.fchmod(fd, committed_file_mode())  # mkstemp makes 0o600
     try:
         with os.fdopen(fd, "wb") as fh:
             torch.save(blob, fh)

@@ -42,6 +42,11 @@ class TrainConfig:
     device: str = "auto"
     threshold: float = 0.95
     class_weighting: str = "balanced"
+    # "hflip" (off by default: in leave-one-assembly-out evaluation it did not help, 68.3% vs
+    # 70.2% mean accuracy): mirror each training pair left-right with probability 1/2 (seeded). Exact for this
+    # data: motion is normalised downward and the physics (no gravity, noise symmetric about the
+    # path) is mirror-symmetric, so a mirrored operation is equally robust. "none": off.
+    augment: str = "none"
     num_threads: int = 0
     max_memory_mb: float = 2048.0
 
@@ -50,6 +55,8 @@ class TrainConfig:
             raise InputError("epochs and batch size must be at least 1")
         if self.class_weighting not in ("balanced", "none"):
             raise InputError(f"class weighting {self.class_weighting!r}: balanced or none")
+        if self.augment not in ("hflip", "none"):
+            raise InputError(f"augment {self.augment!r}: hflip or none")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -144,7 +151,10 @@ def train(root: str | Path, *, holdout: str | None = None, model_config: ModelCo
             loss_sum, hits, seen = 0.0, 0, 0
             te = time.perf_counter()
             for step, (images, labels) in enumerate(data.epoch(rng)):
-                x = torch.from_numpy(images).to(device)
+                if config.augment == "hflip":
+                    flip = rng.random(len(images)) < 0.5
+                    images = np.where(flip[:, None, None, None], images[..., ::-1], images)
+                x = torch.from_numpy(np.ascontiguousarray(images)).to(device)
                 y = torch.from_numpy(labels).to(device)
                 logits = model(x)
                 loss = F.cross_entropy(logits, y, weight=w)

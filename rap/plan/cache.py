@@ -26,6 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
+from rap.dataset import committed_file_mode
+
 __all__ = ["CachedScore", "ScoreCache", "default_cache_path", "CACHE_FORMAT"]
 
 CACHE_FORMAT = "rap-farm/score-cache"
@@ -118,6 +120,7 @@ class ScoreCache:
                    "scores": {k: [v.score, v.successes, v.trials] for k, v in sorted(merged.items())}}
             self.path.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=self.path.parent)
+            os.fchmod(fd, committed_file_mode())  # mkstemp makes 0o600
             try:
                 with os.fdopen(fd, "w", encoding="utf-8") as fh:
                     json.dump(doc, fh, separators=(",", ":"))

@@ -16,6 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import PathPatch, Wedge  # noqa: E402
 from matplotlib.path import Path as MPath  # noqa: E402
+from shapely.geometry import Polygon  # noqa: E402
 
 from rap.assembly import Assembly  # noqa: E402
 from rap.errors import InputError  # noqa: E402
@@ -48,10 +49,9 @@ def draw_parts(ax, assembly: Assembly, ids: Iterable[str] | None = None, offset=
         part = assembly.part(pid)
         ax.add_patch(PathPatch(_part_path(part, *offset), facecolor=colors[pid], edgecolor=edgecolor,
                                linewidth=0.8, alpha=alpha, linestyle=linestyle))
-        if labels:
-            pts = part.float_outer()
-            cx = sum(p[0] for p in pts) / len(pts) + offset[0]
-            cy = sum(p[1] for p in pts) / len(pts) + offset[1]
+        if labels:  # a point inside the part (a C-shape's vertex mean lies in its mouth)
+            inside = Polygon(part.float_outer(), part.float_holes()).representative_point()
+            cx, cy = inside.x + offset[0], inside.y + offset[1]
             ax.text(cx, cy, pid, ha="center", va="center", fontsize=fontsize, alpha=alpha)
 
 
