@@ -80,3 +80,7 @@ def main(argv: list[str] | None = None) -> None:
         if isinstance(exc, click.exceptions.Abort):
             sys.exit(EXIT_INTERRUPTED)
         raise
+
+
+if __name__ == "__main__":
+    main()

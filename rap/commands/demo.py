@@ -44,9 +44,9 @@ def demo_command(
                                  help="Assembly to plan (held out of training)."),
     assemblies: Path = typer.Option(None, "--assemblies",
                                     help="Directory of assembly JSON files [default: bundled]."),
-    ops: int = typer.Option(80, "--ops", min=4, help="Labelled operations per assembly."),
-    trials: int = typer.Option(20, "--trials", min=1, help="Simulator trials per operation."),
-    epochs: int = typer.Option(6, "--epochs", min=1, help="Training epochs."),
+    ops: int = typer.Option(300, "--ops", min=4, help="Labelled operations per assembly."),
+    trials: int = typer.Option(30, "--trials", min=1, help="Simulator trials per operation."),
+    epochs: int = typer.Option(8, "--epochs", min=1, help="Training epochs."),
     seed: int = typer.Option(0, "--seed", help="Root seed (labels, training, planning)."),
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors [default: all CPUs]."),
 ):
