@@ -12,10 +12,12 @@ connected layers with ReLU and dropout; a final linear layer to the two classes.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 
 import torch
 import torch.nn as nn
+
+from rap.config import strict_from_dict
 
 __all__ = ["ModelConfig", "RobustnessCNN", "NOT_HIGH", "HIGH"]
 
@@ -62,11 +64,7 @@ class ModelConfig:
 
     @classmethod
     def from_dict(cls, d: dict) -> "ModelConfig":
-        names = {f.name for f in fields(cls)}
-        unknown = set(d) - names
-        if unknown:
-            raise ValueError(f"unknown model config fields: {sorted(unknown)}")
-        return cls(**d)
+        return strict_from_dict(cls, d, "model config fields")
 
 
 class RobustnessCNN(nn.Module):

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass, replace
+
+from rap.config import strict_from_dict
 
 __all__ = ["SimParams", "DEFAULT_PARAMS"]
 
@@ -85,11 +87,7 @@ class SimParams:
     @classmethod
     def from_dict(cls, data: dict) -> "SimParams":
         """Inverse of ``to_dict``; unknown keys raise ``ValueError``, missing keys take defaults."""
-        known = {f.name for f in fields(cls)}
-        unknown = set(data) - known
-        if unknown:
-            raise ValueError(f"unknown simulator parameters: {sorted(unknown)}")
-        return cls(**data)
+        return strict_from_dict(cls, data, "simulator parameters")
 
     def fingerprint(self) -> str:
         """Short hex (16 chars) SHA-256 of the sorted JSON of ``to_dict()``.
