@@ -4,6 +4,14 @@ Each command lives in ``rap.commands.<name>`` and registers itself with ``regist
 imports (ray, torch) happen inside the command bodies. Errors derived from ``RapError`` print one
 line to stderr and exit with their documented status (2 for bad input, 1 for an infeasible plan,
 130 when interrupted); no traceback is shown unless ``RAP_DEBUG=1``.
+
+Usage errors (a missing argument, an unknown option, a bad value) print the CLI stack's short usage
+message and exit 2. The app runs with ``standalone_mode=False``, so the stack's own exceptions reach
+``main``. Which classes those are depends on the versions installed: typer < 0.20 raises click's
+(``click.exceptions.UsageError``...), later typers raise those of their vendored copy of click
+(``typer._click.exceptions``...), so ``main`` recognises them by class name along the exception's
+MRO (``ClickException``, ``Abort``, ``Exit`` defined in a ``click`` or ``typer`` module) and never
+imports click itself. Supported and tested: see ``typer`` in pyproject.toml.
 """
 
 from __future__ import annotations
@@ -15,7 +23,7 @@ import sys
 import typer
 
 from rap import __version__
-from rap.errors import EXIT_INTERRUPTED, RapError
+from rap.errors import EXIT_INPUT, EXIT_INTERRUPTED, RapError
 
 __all__ = ["app", "main"]
 
@@ -55,31 +63,56 @@ for _name in COMMAND_MODULES:
     _mod.register(app)
 
 
+def _stack_exception(exc: BaseException) -> str | None:
+    """``"usage"``, ``"abort"`` or ``"exit"`` when ``exc`` is one of the CLI stack's control
+    exceptions (click's or typer's vendored copy, any version), else None."""
+    for cls in type(exc).__mro__:
+        module = getattr(cls, "__module__", "") or ""
+        if module.split(".")[0] not in ("click", "typer"):
+            continue
+        if cls.__name__ == "ClickException":
+            return "usage"
+        if cls.__name__ == "Abort":
+            return "abort"
+        if cls.__name__ == "Exit":
+            return "exit"
+    return None
+
+
+def _interrupted() -> None:
+    print("rap-farm: interrupted; committed work is kept", file=sys.stderr)
+    sys.exit(EXIT_INTERRUPTED)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point: runs the app and maps errors to one line + exit status."""
     try:
-        app(args=argv, standalone_mode=False)
+        status = app(args=argv, prog_name="rap-farm", standalone_mode=False)
     except RapError as exc:
         if os.environ.get("RAP_DEBUG"):
             raise
         print(f"rap-farm: error: {exc}", file=sys.stderr)
         sys.exit(exc.exit_code)
     except KeyboardInterrupt:
-        print("rap-farm: interrupted; committed work is kept", file=sys.stderr)
-        sys.exit(EXIT_INTERRUPTED)
-    except typer.Exit as exc:
-        sys.exit(exc.exit_code)
+        _interrupted()
     except SystemExit:
         raise
-    except Exception as exc:  # click usage errors come through here in non-standalone mode
-        import click
-
-        if isinstance(exc, click.exceptions.ClickException):
-            exc.show()
-            sys.exit(2)
-        if isinstance(exc, click.exceptions.Abort):
-            sys.exit(EXIT_INTERRUPTED)
+    except Exception as exc:
+        kind = _stack_exception(exc)
+        if kind == "usage":  # typer's short usage message ("Usage: ... Error: ...")
+            exc.show()  # type: ignore[attr-defined]
+            sys.exit(EXIT_INPUT)
+        if kind == "abort":  # click < 8.2 turns Ctrl-C into Abort
+            _interrupted()
+        if kind == "exit":
+            sys.exit(getattr(exc, "exit_code", 0))
         raise
+    # In non-standalone mode an Exit (--help, --version, typer >= 0.20's Ctrl-C as Exit(130)) is
+    # returned as its status; commands themselves return None.
+    if isinstance(status, int) and not isinstance(status, bool) and status:
+        if status == EXIT_INTERRUPTED:
+            _interrupted()
+        sys.exit(status)
 
 
 if __name__ == "__main__":
