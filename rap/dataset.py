@@ -31,6 +31,7 @@ import pyarrow.parquet as pq
 
 from rap import __version__
 from rap.errors import InputError
+from rap.files import committed_file_mode
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -106,13 +107,6 @@ def rows_to_table(rows: Iterable[dict]) -> pa.Table:
                     for v in vals]
         cols[f.name] = pa.array(vals, type=f.type)
     return pa.Table.from_pydict(cols, schema=SCHEMA)
-
-
-def committed_file_mode() -> int:
-    """Permissions of a committed file: 0o666 minus the process umask (``mkstemp`` makes 0o600)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
 
 
 def _fsync_dir(path: Path) -> None:

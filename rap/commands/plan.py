@@ -1,9 +1,19 @@
 """``rap-farm plan``: a robust assembly sequence for one assembly (RAP, sim, optimal or random).
 
-By default the plan is served by a planning actor on Ray (``rap.farm.service``): it holds the CNN
-and sends simulator work to a pool of simulation actors (the local Ray on a laptop; ``--address``
-joins a cluster). ``--no-ray`` plans in this process. Exit status 0 with a plan, 1 when the
-assembly is interlocked (no sequence of one-step translations exists), 2 for invalid input.
+Where the work happens:
+
+* by default, in this process: the CNN runs without torch where it can (``rap.plan.fastcnn``) and
+  a batch of two or more simulations is spread over forked worker processes on this machine
+  (``--workers``, default every CPU; ``LocalSimulator``), so a small plan takes a few seconds;
+* ``--address HOST:PORT|auto`` (or ``RAY_ADDRESS``, as in a Ray Job): on a Ray cluster, through a
+  planning actor and a pool of simulation actors (``rap.farm.service``);
+* ``--server URL``: by a running planning service (``rap-farm serve``), over HTTP (``rap.client``);
+  the table, ``--out`` and ``--picture`` are the same as for a local plan.
+
+The same operation gets the same simulator seed everywhere, so scores do not depend on where they
+were computed. Exit status 0 with a plan, 1 when the assembly is interlocked (no sequence of
+one-step translations exists), 2 for invalid input (or a request the service refused), 3 when the
+service fails.
 """
 
 from __future__ import annotations
@@ -56,7 +66,8 @@ def resolve_model(model: Path | None, method: str, echo) -> tuple[str | None, st
 
 
 def write_plan_json(result, path: Path) -> Path:
-    """Write ``result.to_json()`` atomically (temporary file + rename)."""
+    """Write ``result.to_json()`` (the one serialiser of a plan, also the planning service's answer)
+    atomically: temporary file + rename."""
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -103,6 +114,8 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
     parts = [f"planning {result.seconds:.2f} s", f"evaluation {result.eval_seconds:.2f} s"]
     if wall_s is not None:
         parts.append(f"wall {wall_s:.2f} s" + (" (Ray start-up included)" if ray else ""))
+    if st.get("service_seconds") is not None and not ray:
+        parts.append(f"service {st['service_seconds']:.2f} s")
     console.print("time: " + ", ".join(parts))
     facts = [f"{st.get('sim_run', 0)} simulations run", f"{st.get('cache_hits', 0)} cached scores used"]
     if st.get("cnn_batches"):
@@ -110,7 +123,7 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
     if result.method == "rap":
         facts.append(f"simulator fallbacks: {st.get('fallbacks', 0)} of {st.get('decisions', 0)} "
                      f"decisions")
-    if result.method == "optimal":
+    if result.method == "optimal" and "subassemblies" in st:
         facts.append(f"DP over {st['subassemblies']} subassemblies / {st['operations']} operations "
                      f"vs. {st['exhaustive_sequences']:,} sequences for an exhaustive search "
                      f"({st['dp_speedup']:.0f}x fewer step evaluations)")
@@ -122,32 +135,46 @@ def _check_suffix(path: Path | None, option: str, suffixes: tuple[str, ...]) -> 
         raise InputError(f"{option} {path}: must end in {' or '.join(suffixes)}")
 
 
+def _local_workers(workers: int | None) -> int:
+    if workers:
+        return int(workers)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
 def plan_command(
     assembly: Path = typer.Argument(..., help="Assembly JSON file."),
     model: Path = typer.Option(None, "--model", help="CNN checkpoint [default: the shipped model]."),
     method: str = typer.Option("rap", "--method", help="rap | sim | optimal | random."),
     out: Path = typer.Option(None, "--out", "-o", help="Write the plan as JSON here."),
     picture: Path = typer.Option(None, "--picture", help="Storyboard of the plan (.png or .svg)."),
-    address: str = typer.Option(None, "--address", help="Join this Ray cluster (HOST:PORT or auto)."),
+    address: str = typer.Option(None, "--address", help="Plan on this Ray cluster (HOST:PORT or "
+                                "auto; default $RAY_ADDRESS, else on this machine without Ray)."),
+    server: str = typer.Option(None, "--server", help="Ask a running planning service "
+                               "(rap-farm serve), e.g. http://127.0.0.1:8000."),
+    token: str = typer.Option(None, "--token", help="Bearer token for --server [default: "
+                              "$RAP_FARM_TOKEN]."),
     seed: int = typer.Option(None, "--seed", help="Root seed of the simulator's randomness."),
     trials: int = typer.Option(100, "--trials", min=1, help="Simulator trials per operation."),
-    no_ray: bool = typer.Option(False, "--no-ray", help="Plan in this process, without Ray."),
+    no_ray: bool = typer.Option(False, "--no-ray", help="Never use Ray, even with $RAY_ADDRESS "
+                                "set (without --address this is the default)."),
     space: str = typer.Option("online", "--space",
                               help="online (one partition per NDBG cell, as RAP) | all."),
     cache: Path = typer.Option(None, "--cache", help="Score cache file [default: "
                                "~/.cache/rap-farm/scores.json or $RAP_CACHE]."),
     no_cache: bool = typer.Option(False, "--no-cache", help="Neither read nor write a cache file."),
     samples: int = typer.Option(50, "--samples", min=1, help="Random sequences (method random)."),
-    workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors [default: all CPUs]."),
+    workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
+                                "actors with --address [default: all CPUs]."),
 ):
     """Plan a robust assembly sequence and print it (step, parts, direction, score, source)."""
     from rap.commands._console import console as make_console
 
     from rap.assembly import load_assembly
-    from rap.plan.cache import ScoreCache, default_cache_path
     from rap.plan.result import PlanStatus
     from rap.seeds import DEFAULT_ROOT_SEED
-    from rap.sim.params import SimParams
 
     console = make_console()
     err = make_console(stderr=True)
@@ -159,36 +186,56 @@ def plan_command(
     _check_suffix(picture, "--picture", (".png", ".svg"))
     if no_ray and address:
         raise InputError("--no-ray and --address exclude each other")
+    if server is not None:
+        given = [name for name, v, default in (
+            ("--address", address, None), ("--no-ray", no_ray, False), ("--model", model, None),
+            ("--trials", trials, 100), ("--space", space, "online"), ("--cache", cache, None),
+            ("--no-cache", no_cache, False), ("--samples", samples, 50),
+            ("--workers", workers, None)) if v != default]
+        if given:
+            raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
+                             f"its own model, cache and workers, {SERVICE_DEFAULTS})")
     asm = load_assembly(assembly)
     root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
-    params = SimParams(trials=trials)
-    model_path, method = resolve_model(model, method, lambda s: err.print(s))
-    cache_path = None if no_cache else (cache or default_cache_path())
-
-    if model_path is not None:
-        _familiarity(asm, model_path, space, err)
 
     t0 = time.perf_counter()
-    if no_ray:
-        from rap.plan.planners import make_planner
-        from rap.plan.problem import PlanningProblem
-        from rap.plan.scorers import LocalSimulator, PredictorCnn, Scorer
+    on_ray = False
+    if server is not None:
+        from rap.client import plan_body, post_plan
+        from rap.plan.result import PlanResult
 
-        cache_obj = ScoreCache(cache_path)
-        scorer = Scorer(LocalSimulator(), PredictorCnn.load(model_path) if model_path else None,
-                        cache_obj)
-        problem = PlanningProblem(asm, params, root_seed, space)
-        result = make_planner(method, samples=samples).solve(problem, scorer)
-        cache_obj.flush()
+        body = plan_body(assembly, method, seed)
+        with console.status(f"planning {asm.name} with {method} at {server} ..."):
+            doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
+        try:
+            result = PlanResult.from_json(doc, **details)
+        except ValueError as exc:
+            from rap.client import ServiceError
+
+            raise ServiceError(f"--server {server}: {exc}") from None
+        cache_path = None
     else:
-        import rap.farm.service as service
+        from rap.plan.cache import default_cache_path
+        from rap.sim.params import SimParams
 
-        req = service.PlanRequest(asm, method, params, root_seed, space, samples)
-        with console.status(f"planning {asm.name} with {method} on Ray"
-                            + (f" at {address}" if address else " (local)") + " ..."):
-            result = service.run_plan(req, model_path=model_path, address=address,
-                                      workers=workers,
-                                      cache_path=str(cache_path) if cache_path else None)
+        params = SimParams(trials=trials)
+        model_path, method = resolve_model(model, method, lambda s: err.print(s))
+        cache_path = None if no_cache else (cache or default_cache_path())
+        address = None if no_ray else (address or os.environ.get("RAY_ADDRESS") or None)
+        if address is None:
+            result = _plan_here(asm, method, params, root_seed, space, samples, model_path,
+                                cache_path, _local_workers(workers), err)
+        else:
+            import rap.farm.service as service
+
+            if model_path is not None:
+                _familiarity(asm, _load_cnn(model_path), space, err)
+            on_ray = True
+            req = service.PlanRequest(asm, method, params, root_seed, space, samples)
+            with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
+                result = service.run_plan(req, model_path=model_path, address=address,
+                                          workers=workers,
+                                          cache_path=str(cache_path) if cache_path else None)
     wall = time.perf_counter() - t0
 
     if result.status is PlanStatus.INFEASIBLE:
@@ -198,7 +245,9 @@ def plan_command(
         raise InfeasiblePlan(result.message)
     if result.status is not PlanStatus.FOUND:
         raise InfeasiblePlan(f"no plan: {result.message}")
-    print_result(console, result, wall_s=wall, ray=not no_ray)
+    print_result(console, result, wall_s=wall, ray=on_ray)
+    if server is not None:
+        console.print(f"planned by the service at {server}", style="dim")
     if out is not None:
         console.print(f"plan written to {write_plan_json(result, out)}")
     if picture is not None:
@@ -211,20 +260,49 @@ def plan_command(
         console.print(f"score cache: {cache_path}", style="dim")
 
 
-def _familiarity(asm, model_path: str, space: str, err) -> None:
+#: what a planning service uses for what ``plan --server`` cannot choose
+SERVICE_DEFAULTS = "100 trials per operation, the online operation space, 50 random samples"
+
+
+def _load_cnn(model_path: str):
+    from rap.plan.scorers import PredictorCnn
+
+    return PredictorCnn.load(model_path, engine="auto")
+
+
+def _plan_here(asm, method, params, root_seed, space, samples, model_path, cache_path, workers,
+               err):
+    """Plan in this process; simulation batches over ``workers`` forked processes."""
+    from rap.plan.cache import ScoreCache
+    from rap.plan.planners import make_planner
+    from rap.plan.problem import PlanningProblem
+    from rap.plan.scorers import LocalSimulator, Scorer
+
+    cnn = _load_cnn(model_path) if model_path else None
+    problem = PlanningProblem(asm, params, root_seed, space)
+    if cnn is not None:
+        _familiarity(asm, cnn, space, err, problem=problem)
+    cache_obj = ScoreCache(cache_path)
+    sim = LocalSimulator(processes=workers)
+    try:
+        result = make_planner(method, samples=samples).solve(problem, Scorer(sim, cnn, cache_obj))
+    finally:
+        sim.close()
+    cache_obj.flush()
+    return result
+
+
+def _familiarity(asm, cnn, space: str, err, problem=None) -> None:
     """Warn when ``asm`` is far from what the model was trained on (checkpoint metadata)."""
     try:
-        from rap.model.checkpoint import load_checkpoint
         from rap.plan.problem import PlanningProblem
-        from rap.plan.scorers import PredictorCnn, model_familiarity
+        from rap.plan.scorers import model_familiarity
         from rap.sim.params import SimParams
 
-        ck = load_checkpoint(model_path)
-        problem = PlanningProblem(asm, SimParams(), space=space)
+        problem = problem or PlanningProblem(asm, SimParams(), space=space)
         ops = list(problem.candidates(problem.whole))
-        images = PredictorCnn(None).images(problem, ops)
-        notes = model_familiarity({"assemblies": ck.assemblies, "image_stats": ck.image_stats},
-                                  asm.geometry_hash, images)
+        images = cnn.images(problem, ops)
+        notes = model_familiarity(cnn.meta, asm.geometry_hash, images)
     except RapError:
         raise
     except Exception as exc:  # a failed check must not stop planning

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
-from rap.dataset import committed_file_mode
+from rap.files import committed_file_mode
 
 __all__ = ["CachedScore", "ScoreCache", "default_cache_path", "CACHE_FORMAT"]
 

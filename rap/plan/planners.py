@@ -39,9 +39,9 @@ from typing import Sequence
 
 import numpy as np
 
-from rap.operation import Operation, subset_key
+from rap.operation import Operation
 from rap.plan.problem import PlanningProblem, minimal_interlocked
-from rap.plan.result import PlanResult, PlanStatus, PlanStep
+from rap.plan.result import PlanResult, PlanStatus, PlanStep, interlocked_message
 from rap.plan.scorers import Budget, BudgetSpent, Scorer
 from rap.seeds import derive_rng
 
@@ -108,9 +108,7 @@ class Planner(abc.ABC):
                               interlocked=tuple(sorted(culprit)),
                               stats={**stats, **counters(),
                                      "stuck_at": sorted(exc.subset)},
-                              message=f"no one-step translation separates the subassembly "
-                                      f"{{{subset_key(culprit)}}}: it is interlocked, so "
-                                      f"{problem.assembly.name} has no assembly sequence")
+                              message=interlocked_message(problem.assembly.name, culprit))
         except BudgetSpent as exc:
             return PlanResult(PlanStatus.BUDGET_SPENT, self.name, problem.assembly.name,
                               seconds=time.perf_counter() - t0,

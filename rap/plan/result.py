@@ -9,7 +9,9 @@ budget of simulations or seconds).
 sequence is evaluated by the simulator); ``source`` what chose it (``"cnn"``, ``"sim"`` or
 ``"random"``); ``confidence`` the CNN's P(high) when the CNN chose it, else ``None``.
 
-``PlanResult.to_json()`` is the ``rap-farm plan --out`` document.
+``PlanResult.to_json()`` is the ``rap-farm plan --out`` document and the body of the planning
+service's answer (``rap.farm.serve``); ``PlanResult.from_json(doc)`` reads it back (what
+``rap-farm plan --server`` prints and writes), so ``from_json(doc).to_json() == doc``.
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ from typing import Sequence
 
 from rap.operation import Operation
 
-__all__ = ["PlanStatus", "PlanStep", "PlanResult", "SOURCES", "robustness_of", "is_assembly_order"]
+__all__ = ["PlanStatus", "PlanStep", "PlanResult", "SOURCES", "robustness_of", "is_assembly_order",
+           "interlocked_message"]
 
 SOURCES = ("cnn", "sim", "random")
 
@@ -59,6 +62,12 @@ class PlanStep:
         return {"moving": list(self.moving), "fixed": list(self.fixed),
                 "direction": [self.direction[0], self.direction[1]], "score": self.score,
                 "source": self.source, "confidence": self.confidence}
+
+
+def interlocked_message(assembly: str, parts) -> str:
+    """The one-line reason of an ``INFEASIBLE`` result whose minimal interlocked set is ``parts``."""
+    return (f"no one-step translation separates the subassembly {{{','.join(sorted(parts))}}}: "
+            f"it is interlocked, so {assembly} has no assembly sequence")
 
 
 def robustness_of(steps: Sequence[PlanStep]) -> float | None:
@@ -114,6 +123,34 @@ class PlanResult:
 
     def with_(self, **changes) -> "PlanResult":
         return replace(self, **changes)
+
+    @classmethod
+    def from_json(cls, doc: dict, *, eval_seconds: float = 0.0,
+                  stats: dict | None = None) -> "PlanResult":
+        """The result described by a ``to_json()`` document (``eval_seconds`` and ``stats`` are
+        not in it). Raises ``ValueError`` for a document of another shape."""
+        try:
+            feasible = doc["feasible"]
+            common = dict(method=str(doc["method"]), assembly=str(doc["assembly"]),
+                          eval_seconds=float(eval_seconds), stats=dict(stats or {}))
+            if feasible is True:
+                steps = tuple(
+                    PlanStep(tuple(map(str, s["moving"])), tuple(map(str, s["fixed"])),
+                             (float(s["direction"][0]), float(s["direction"][1])), str(s["source"]),
+                             None if s["score"] is None else float(s["score"]),
+                             None if s["confidence"] is None else float(s["confidence"]))
+                    for s in doc["steps"])
+                r = doc["robustness"]
+                return cls(PlanStatus.FOUND, steps=steps, robustness=None if r is None else float(r),
+                           seconds=float(doc["seconds"]), **common)
+            if feasible is False:
+                parts = tuple(map(str, doc["interlocked"]))
+                return cls(PlanStatus.INFEASIBLE, interlocked=parts,
+                           message=interlocked_message(common["assembly"], parts), **common)
+            return cls(PlanStatus(doc["status"]), seconds=float(doc["seconds"]),
+                       message=str(doc["message"]), **common)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise ValueError(f"not a plan document ({type(exc).__name__}: {exc})") from None
 
     def to_json(self) -> dict:
         """The ``--out`` document: exactly the keys documented for ``rap-farm plan``."""

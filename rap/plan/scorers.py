@@ -9,11 +9,15 @@ A planner sees one object, ``Scorer``, with two questions:
 * ``prob_high(problem, ops) -> float [N]``: the CNN's P(high) for each operation, one batch.
 
 Simulator backends (``SimBackend``: ``simulate_many(problem, ops) -> list[CachedScore]``):
-``LocalSimulator`` runs ``rap.sim.simulator.simulate`` in this process, one operation after another,
-with the per-operation seed ``problem.seed(op)`` (the labelling farm's seed, so the scores equal the
-dataset's labels for the same parameters and root seed). CNN backend: ``PredictorCnn`` renders each
-operation (``rap.render.images.render_pair``) and asks ``rap.model.predict.Predictor`` (torch is
-imported only when one is loaded).
+``LocalSimulator`` runs ``rap.sim.simulator.simulate`` on this machine with the per-operation seed
+``problem.seed(op)`` (the labelling farm's seed, so the scores equal the dataset's labels for the
+same parameters and root seed): in this process, or, with ``processes > 1``, a batch of at least
+``min_batch`` operations spread over that many forked worker processes, started at the first such
+batch (tens of milliseconds, against seconds for a Ray cluster) and kept until ``close()``.
+CNN backend: ``PredictorCnn`` renders each operation (``rap.render.images.render_pair``) and asks a
+predictor: ``rap.model.predict.Predictor`` (torch), or with ``engine="auto"`` the torch-free
+forward pass of ``rap.plan.fastcnn`` when it runs the checkpoint exactly (no torch import: seconds
+saved for a one-off plan).
 
 ``Budget`` limits a run (simulations, seconds); a scorer raises ``BudgetSpent`` when a call would
 exceed it and the planner reports ``PlanStatus.BUDGET_SPENT``. ``Scorer.fork()`` gives a scorer with
@@ -24,6 +28,7 @@ No ray; no torch at import.
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -37,7 +42,7 @@ from rap.plan.cache import CachedScore, ScoreCache
 from rap.plan.problem import PlanningProblem
 
 __all__ = ["SimBackend", "CnnBackend", "LocalSimulator", "PredictorCnn", "Scorer", "ScorerStats",
-           "Budget", "BudgetSpent", "IMAGE_SIZE", "model_familiarity"]
+           "Budget", "BudgetSpent", "IMAGE_SIZE", "model_familiarity", "foreground_stats"]
 
 IMAGE_SIZE = 64
 
@@ -64,23 +69,56 @@ class Budget:
     max_seconds: float | None = None
 
 
-class LocalSimulator:
-    """``rap.sim.simulator.simulate`` in this process, sequentially (``simulate`` replaceable)."""
+def _simulate_one(simulate: Callable | None, assembly, op, params, seed: int) -> CachedScore:
+    if simulate is None:
+        from rap.sim.simulator import simulate
+    res = simulate(assembly, op, params, np.random.default_rng(seed))
+    return CachedScore(float(res.score), int(res.successes), int(res.trials))
 
-    def __init__(self, simulate: Callable | None = None):
+
+def _simulate_task(args) -> CachedScore:  # runs in a worker process
+    return _simulate_one(None, *args)
+
+
+class LocalSimulator:
+    """``rap.sim.simulator.simulate`` on this machine (``simulate`` replaceable): sequentially in
+    this process, or over ``processes`` forked workers for batches of ``min_batch`` or more
+    operations (Linux; the real simulator only). Same seeds, same scores either way."""
+
+    def __init__(self, simulate: Callable | None = None, *, processes: int = 1, min_batch: int = 2):
         self._simulate = simulate
+        self.processes = max(1, int(processes))
+        self.min_batch = max(1, int(min_batch))
+        self._executor = None
+        self._lock = threading.Lock()
+
+    def _pool(self):
+        if self.processes < 2 or self._simulate is not None or not sys.platform.startswith("linux"):
+            return None
+        with self._lock:
+            if self._executor is None:
+                import multiprocessing
+                from concurrent.futures import ProcessPoolExecutor
+
+                from rap.sim import simulator  # noqa: F401  (imported once, before the fork)
+
+                self._executor = ProcessPoolExecutor(self.processes,
+                                                     mp_context=multiprocessing.get_context("fork"))
+            return self._executor
 
     def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
-        if self._simulate is None:
-            from rap.sim.simulator import simulate
+        jobs = [(problem.assembly, op, problem.params, problem.seed(op)) for op in ops]
+        pool = self._pool() if len(jobs) >= self.min_batch else None
+        if pool is not None:
+            return list(pool.map(_simulate_task, jobs))
+        return [_simulate_one(self._simulate, *j) for j in jobs]
 
-            self._simulate = simulate
-        out = []
-        for op in ops:
-            res = self._simulate(problem.assembly, op, problem.params,
-                                 np.random.default_rng(problem.seed(op)))
-            out.append(CachedScore(float(res.score), int(res.successes), int(res.trials)))
-        return out
+    def close(self) -> None:
+        """Stop the worker processes (if any were started)."""
+        with self._lock:
+            ex, self._executor = self._executor, None
+        if ex is not None:
+            ex.shutdown(wait=True, cancel_futures=True)
 
 
 class PredictorCnn:
@@ -96,10 +134,27 @@ class PredictorCnn:
         self.render_seconds = 0.0
 
     @classmethod
-    def load(cls, path: str | Path, device: str = "cpu") -> "PredictorCnn":
+    def load(cls, path: str | Path, device: str = "cpu", engine: str = "torch") -> "PredictorCnn":
+        """``engine``: ``"torch"`` (``rap.model.predict.Predictor``) or ``"auto"``: on the CPU,
+        ``rap.plan.fastcnn``'s numpy forward pass when it runs this checkpoint exactly, else torch.
+        Both give the same probabilities to float32 rounding."""
+        if engine not in ("torch", "auto"):
+            raise ValueError(f"engine {engine!r}: torch or auto")
+        if engine == "auto" and str(device) == "cpu":
+            from rap.plan.fastcnn import load_fast_predictor
+
+            fast = load_fast_predictor(path)
+            if fast is not None:
+                return cls(fast)
         from rap.model.predict import Predictor
 
         return cls(Predictor.load(path, device=device))
+
+    @property
+    def meta(self) -> dict:
+        """What the checkpoint says about its training data (``model_familiarity``'s input)."""
+        p = self.predictor
+        return {"assemblies": p.assemblies, "image_stats": p.image_stats}
 
     def images(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         if self._render is None:
@@ -219,9 +274,7 @@ def model_familiarity(meta: dict, geometry_hash: str, images: np.ndarray,
                          f"predictions are not a test of generalisation")
     ref = meta.get("image_stats") or {}
     if len(images) and ref.get("foreground_mean") and ref.get("coarse_foreground") is not None:
-        from rap.model.data import image_stats
-
-        new = image_stats([np.asarray(images, dtype=np.uint8)])
+        new = foreground_stats(np.asarray(images, dtype=np.uint8))
         z = [(m - rm) / rs if rs > 0 else 0.0 for m, rm, rs in
              zip(new["foreground_mean"], ref["foreground_mean"], ref["foreground_std"])]
         coarse = float(np.abs(np.asarray(new["coarse_foreground"])
@@ -232,3 +285,14 @@ def model_familiarity(meta: dict, geometry_hash: str, images: np.ndarray,
                          f"{coarse:.2f}; trained on: {', '.join(names) or 'unknown'}): expect "
                          f"more simulator fallbacks or less robust choices")
     return notes
+
+
+def foreground_stats(images: np.ndarray) -> dict:
+    """Of uint8 images [n, c, h, w]: per channel the mean foreground fraction (pixels > 0) and the
+    coarse 8x8 mean foreground map; the definitions of ``rap.model.data.image_stats``, which the
+    checkpoint stores for its training images (computed here without importing pyarrow)."""
+    k, c, hgt, wid = images.shape
+    fg = images > 0
+    return {"foreground_mean": fg.reshape(k, c, -1).mean(axis=2).mean(axis=0).tolist(),
+            "coarse_foreground": fg.reshape(k, c, 8, hgt // 8, 8, wid // 8).mean(axis=(3, 5))
+                                   .mean(axis=0).round(5).tolist()}

@@ -1,0 +1,126 @@
+"""The torch-free CNN (rap.plan.fastcnn) against torch, the quick local simulator, plan documents."""
+
+from __future__ import annotations
+
+import json
+import pickle
+
+import numpy as np
+import pytest
+
+from rap.plan.fastcnn import load_fast_predictor, read_torch_checkpoint
+from rap.plan.problem import PlanningProblem
+from rap.plan.result import PlanResult
+from rap.plan.scorers import LocalSimulator, PredictorCnn, foreground_stats
+from rap.sim.params import SimParams
+
+from tests.plan.cases import FRAMED_HOLE, ROW3, memory, six
+
+
+def _images(name: str) -> np.ndarray:
+    problem = PlanningProblem(six(name), SimParams())
+    ops = [op for s in (problem.whole,) for op in problem.candidates(s)]
+    return PredictorCnn(None).images(problem, ops)
+
+
+def test_shipped_model_runs_without_torch_and_agrees_with_torch():
+    torch_predict = pytest.importorskip("rap.model.predict")
+    from rap.commands.plan import default_model_path
+
+    path = default_model_path()
+    fast = load_fast_predictor(path)
+    assert fast is not None, "the shipped checkpoint should run in numpy"
+    slow = torch_predict.Predictor.load(path)
+    images = np.concatenate([_images("hexagon"), _images("rectilinear")])
+    np.testing.assert_allclose(fast.prob_high(images), slow.prob_high(images), atol=1e-5)
+    assert fast.threshold == slow.threshold
+    assert fast.assemblies == slow.assemblies and fast.image_stats == slow.image_stats
+    assert fast.prob_high(images[:0]).shape == (0,)
+
+
+def test_a_fresh_network_of_the_current_architecture_agrees(tmp_path):
+    """Catches a change of RobustnessCNN that the numpy forward pass does not follow."""
+    torch = pytest.importorskip("torch")
+    from rap.model.checkpoint import save_checkpoint
+    from rap.model.cnn import ModelConfig, RobustnessCNN
+    from rap.model.predict import Predictor
+
+    torch.manual_seed(3)
+    model = RobustnessCNN(ModelConfig())
+    with torch.no_grad():  # larger weights than the init, so the logits vary a lot between inputs
+        for p in model.parameters():
+            p.mul_(3.0)
+    path = save_checkpoint(tmp_path / "m.pt", model, threshold=0.9, data_fingerprint="x",
+                           assemblies=[], image_stats={}, metrics={}, training={})
+    fast = load_fast_predictor(path)
+    assert fast is not None
+    rng = np.random.default_rng(0)
+    images = (rng.random((20, 2, 64, 64)) < 0.4).astype(np.uint8) * rng.integers(
+        0, 256, (20, 2, 64, 64), dtype=np.uint8)
+    p_fast, p_torch = fast.prob_high(images), Predictor.load(path).prob_high(images)
+    assert p_torch.std() > 1e-3
+    np.testing.assert_allclose(p_fast, p_torch, atol=1e-5)
+
+
+def test_anything_but_the_known_architecture_is_left_to_torch(tmp_path):
+    import zipfile
+
+    from rap.commands.plan import default_model_path
+
+    assert load_fast_predictor(tmp_path / "missing.pt") is None
+    (tmp_path / "junk.pt").write_bytes(b"not a zip")
+    assert load_fast_predictor(tmp_path / "junk.pt") is None
+    # a pickle that names another global is refused, not executed
+    src = zipfile.ZipFile(default_model_path())
+    with zipfile.ZipFile(tmp_path / "evil.pt", "w") as dst:
+        for name in src.namelist():
+            data = src.read(name)
+            if name.endswith("data.pkl"):
+                assert b"collections\nOrderedDict\n" in data
+                data = data.replace(b"collections\nOrderedDict\n", b"os\nsystem\n")
+            dst.writestr(name, data)
+    with pytest.raises(pickle.UnpicklingError, match="os.system is not admitted"):
+        read_torch_checkpoint(tmp_path / "evil.pt")
+    assert load_fast_predictor(tmp_path / "evil.pt") is None
+
+
+def test_foreground_stats_match_the_training_statistics():
+    pytest.importorskip("pyarrow")
+    from rap.model.data import image_stats
+
+    images = _images("triangles")
+    ref = image_stats([images])
+    new = foreground_stats(images)
+    np.testing.assert_allclose(new["foreground_mean"], ref["foreground_mean"])
+    np.testing.assert_allclose(new["coarse_foreground"], ref["coarse_foreground"], atol=1e-5)
+
+
+def test_worker_processes_give_the_in_process_scores():
+    asm = memory(ROW3)
+    problem = PlanningProblem(asm, SimParams(trials=6), root_seed=11)
+    ops = list(problem.candidates(problem.whole))
+    assert len(ops) >= 2
+    sim = LocalSimulator(processes=2)
+    try:
+        pooled = sim.simulate_many(problem, ops)
+        assert sim._executor is not None or not __import__("sys").platform.startswith("linux")
+    finally:
+        sim.close()
+    assert pooled == LocalSimulator().simulate_many(problem, ops)
+
+
+@pytest.mark.parametrize("doc", [ROW3, FRAMED_HOLE], ids=["found", "interlocked"])
+def test_plan_documents_read_back_exactly(doc):
+    from rap.plan.cache import ScoreCache
+    from rap.plan.planners import SimPlanner
+    from rap.plan.scorers import Scorer
+
+    problem = PlanningProblem(memory(doc), SimParams(trials=4))
+    result = SimPlanner().solve(problem, Scorer(LocalSimulator(), cache=ScoreCache()))
+    text = json.dumps(result.to_json())
+    back = PlanResult.from_json(json.loads(text))
+    assert back.to_json() == result.to_json()
+    assert back.status is result.status and back.message == result.message
+    assert [s.to_json() for s in back.steps] == [s.to_json() for s in result.steps]
+    with pytest.raises(ValueError):
+        PlanResult.from_json({"feasible": True})
