@@ -194,7 +194,7 @@ def plan_command(
             ("--workers", workers, None)) if v != default]
         if given:
             raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
-                             f"its own model, cache and workers, {SERVICE_DEFAULTS})")
+                             f"its own settings: model, trials, cache, workers)")
     asm = load_assembly(assembly)
     root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
 
@@ -258,10 +258,6 @@ def plan_command(
         console.print(f"storyboard written to {path}")
     if cache_path is not None:
         console.print(f"score cache: {cache_path}", style="dim")
-
-
-#: what a planning service uses for what ``plan --server`` cannot choose
-SERVICE_DEFAULTS = "100 trials per operation, the online operation space, 50 random samples"
 
 
 def _load_cnn(model_path: str):

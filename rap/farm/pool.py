@@ -18,13 +18,17 @@ Design (Ray's core patterns):
 * a task lost with its worker is retried by Ray (``max_restarts`` / ``max_task_retries``) and, if
   that fails too, resubmitted by the pool to another actor (``max_attempts``); a result never
   arrives twice for one submission, and callers that need exactly-once de-duplicate by key;
-* a label depends only on (root seed, content key): never on the worker count or completion order.
+* a label depends only on (root seed, content key): never on the worker count or completion order;
+* one pool serves concurrent callers (threads of the planning service): each ``stream``/``score``
+  call waits on its own tasks, and the shared bookkeeping (actor loads, assembly references, task
+  ids, statistics) is updated under one short lock, never held while waiting on Ray.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import threading
 from dataclasses import dataclass
 from typing import Any, Iterable, Iterator, Sequence
 
@@ -112,6 +116,7 @@ class SimPool:
         self.max_attempts = max(1, int(max_attempts))
         self._actor_options = dict(num_cpus=cpus_per_worker, max_restarts=max_restarts,
                                    max_task_retries=max_task_retries, scheduling_strategy="SPREAD")
+        self._lock = threading.Lock()  # bookkeeping only (see module doc)
         self._actors = [self._new_actor() for _ in range(n)]
         self._load = [0] * n
         self._refs: dict[str, Any] = {}  # geometry hash -> ObjectRef of the Assembly
@@ -139,7 +144,8 @@ class SimPool:
                 ray.kill(a, no_restart=True)
             except Exception:
                 pass
-        self._actors, self._load, self._refs = [], [], {}
+        with self._lock:
+            self._actors, self._load, self._refs = [], [], {}
 
     def __enter__(self) -> "SimPool":
         return self
@@ -151,9 +157,10 @@ class SimPool:
     def put_assembly(self, assembly: Assembly):
         """The object-store reference of ``assembly`` (``ray.put`` once per geometry hash)."""
         gh = assembly.geometry_hash
-        ref = self._refs.get(gh)
-        if ref is None:
-            ref = self._refs[gh] = ray.put(assembly)
+        with self._lock:
+            ref = self._refs.get(gh)
+            if ref is None:
+                ref = self._refs[gh] = ray.put(assembly)
         return ref
 
     @staticmethod
@@ -178,11 +185,17 @@ class SimPool:
         return b
 
     def _submit(self, task: SimTask, avoid: int | None = None):
-        order = sorted(range(self.size), key=lambda i: (i == avoid, self._load[i]))
-        i = order[0]
-        self._load[i] += 1
-        self.stats["tasks"] += 1
-        return self._actors[i].run.remote(task), i
+        with self._lock:
+            i = min(range(self.size), key=lambda k: (k == avoid, self._load[k], k))
+            self._load[i] += 1
+            self.stats["tasks"] += 1
+            actor = self._actors[i]
+        return actor.run.remote(task), i
+
+    def _release(self, i: int) -> None:
+        with self._lock:
+            if 0 <= i < len(self._load):
+                self._load[i] -= 1
 
     def stream(self, jobs: Iterable[Job], params: Any, *, images: bool = True,
                total: int | None = None) -> Iterator[BatchResult]:
@@ -222,8 +235,10 @@ class SimPool:
                 return None
             submitted += len(batch)
             a = batch[0].assembly
-            self._next_task += 1
-            return SimTask(task_id=self._next_task, assembly_name=a.name,
+            with self._lock:
+                self._next_task += 1
+                task_id = self._next_task
+            return SimTask(task_id=task_id, assembly_name=a.name,
                            geometry_hash=a.geometry_hash, assembly_ref=[self.put_assembly(a)],
                            operations=tuple(j.operation for j in batch),
                            keys=tuple(j.key for j in batch), seeds=tuple(j.seed for j in batch),
@@ -242,7 +257,7 @@ class SimPool:
                 done, _ = ray.wait(list(in_flight), num_returns=1)
                 for ref in done:
                     task, i, attempt = in_flight.pop(ref)
-                    self._load[i] -= 1
+                    self._release(i)
                     try:
                         res: BatchResult = ray.get(ref)
                     except RayTaskError as exc:  # the simulator raised: deterministic, do not retry
@@ -254,7 +269,8 @@ class SimPool:
                             raise FarmError(f"a batch of {task.assembly_name} was lost "
                                             f"{attempt} times ({type(exc).__name__})") from exc
                         self._maybe_replace(i, exc)
-                        self.stats["resubmitted"] += 1
+                        with self._lock:
+                            self.stats["resubmitted"] += 1
                         ref2, j = self._submit(task, avoid=i)
                         in_flight[ref2] = (task, j, attempt + 1)
                         continue
@@ -269,18 +285,18 @@ class SimPool:
                     except Exception:
                         pass
                 for _, i, _ in in_flight.values():
-                    if 0 <= i < len(self._load):
-                        self._load[i] -= 1
+                    self._release(i)
 
     def _account(self, res: BatchResult) -> None:
         n = max(1, len(res.rows))
-        s = self.stats
-        s["ops"] += len(res.rows)
-        s["sim_s"] += res.sim_s
-        s["render_s"] += res.render_s
-        s["task_s"] += res.task_s
         per = res.task_s / n
-        self._per_op_s = per if self._per_op_s is None else 0.7 * self._per_op_s + 0.3 * per
+        with self._lock:
+            s = self.stats
+            s["ops"] += len(res.rows)
+            s["sim_s"] += res.sim_s
+            s["render_s"] += res.render_s
+            s["task_s"] += res.task_s
+            self._per_op_s = per if self._per_op_s is None else 0.7 * self._per_op_s + 0.3 * per
 
     def _maybe_replace(self, i: int, exc: BaseException) -> None:
         """Replace actor ``i`` when Ray says it is dead for good (restarts exhausted)."""
@@ -291,12 +307,14 @@ class SimPool:
             return  # it came back (restarted)
         except Exception:
             pass
+        with self._lock:
+            dead = self._actors[i]
+            self._actors[i] = self._new_actor()
+            self.stats["replaced"] += 1
         try:
-            ray.kill(self._actors[i], no_restart=True)
+            ray.kill(dead, no_restart=True)
         except Exception:
             pass
-        self._actors[i] = self._new_actor()
-        self.stats["replaced"] += 1
 
     def score(self, assembly: Assembly, operations: Sequence[Operation], params: Any,
               root_seed: int, *, images: bool = False) -> list[Scored]:
@@ -326,4 +344,9 @@ class SimPool:
         d = self.__dict__.copy()
         d["_refs"] = {}
         d["_load"] = [0] * len(self._actors)
+        del d["_lock"]
         return d
+
+    def __setstate__(self, d):
+        self.__dict__.update(d)
+        self._lock = threading.Lock()

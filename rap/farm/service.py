@@ -16,15 +16,19 @@ only the CNN's forward passes, so every CPU stays with the simulation workers.
         result = ray.get(svc.plan.remote(PlanRequest(assembly, "rap", params)))
         ray.get(svc.close.remote()); ray.kill(svc)
 
-``run_plan(...)`` does exactly that for one request (what ``rap-farm plan`` calls). Pool calls from
-concurrent requests are serialised by a lock (``SimPool`` keeps per-driver bookkeeping); each batch
-already spreads over every worker.
+``run_plan(...)`` does exactly that for one request (what ``rap-farm plan --address`` calls).
+Concurrent requests share the pool without waiting for each other: each request's batches are its
+own tasks on the pool's actors, and ``SimPool`` keeps its bookkeeping thread-safe. An operation that
+one request is already simulating is not simulated again for another: the second waits for the
+first's result (``SharedSimulations``), which is the score it would have computed itself. The HTTP service
+(``rap.farm.serve``) holds one ``PlanningService`` object in its Ray Serve replica.
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
@@ -44,24 +48,64 @@ from rap.seeds import DEFAULT_ROOT_SEED
 from rap.farm.pool import SimPool
 from rap.farm.runtime import connect
 
-__all__ = ["PoolSimulator", "PlanRequest", "PlanningService", "start_service", "run_plan",
-           "run_plans"]
+__all__ = ["PoolSimulator", "SharedSimulations", "PlanRequest", "PlanningService", "start_service",
+           "run_plan", "run_plans"]
 
 
 class PoolSimulator:
-    """``SimBackend`` over a ``SimPool``: one parallel batch per call, results in input order."""
+    """``SimBackend`` over a ``SimPool``: one parallel batch per call, results in input order.
+    Safe to call from several threads at once (the pool's bookkeeping is locked, not its work)."""
 
-    def __init__(self, pool: SimPool, lock: threading.Lock | None = None):
+    def __init__(self, pool: SimPool):
         self.pool = pool
-        self._lock = lock or threading.Lock()
 
     def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
         if not ops:
             return []
-        with self._lock:
-            res = self.pool.score(problem.assembly, list(ops), problem.params, problem.root_seed,
-                                  images=False)
+        res = self.pool.score(problem.assembly, list(ops), problem.params, problem.root_seed,
+                              images=False)
         return [CachedScore(float(r.score), int(r.successes), int(r.trials)) for r in res]
+
+
+class SharedSimulations:
+    """``SimBackend`` wrapper for concurrent callers: operations (by ``problem.key``) in flight for
+    one caller are awaited by the others instead of simulated twice. Errors reach every waiter."""
+
+    def __init__(self, backend):
+        self.backend = backend
+        self._lock = threading.Lock()
+        self._pending: dict[str, Future] = {}
+        self.shared = 0  # operations answered by another caller's simulation
+
+    def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
+        keys = [problem.key(op) for op in ops]
+        mine: dict[str, tuple[Operation, Future]] = {}
+        theirs: dict[str, Future] = {}
+        with self._lock:
+            for k, op in zip(keys, ops):
+                if k in mine or k in theirs:
+                    continue
+                if k in self._pending:
+                    theirs[k] = self._pending[k]
+                else:
+                    mine[k] = (op, Future())
+                    self._pending[k] = mine[k][1]
+            self.shared += len(theirs)
+        try:
+            if mine:
+                fresh = self.backend.simulate_many(problem, [op for op, _ in mine.values()])
+                for (_, fut), res in zip(mine.values(), fresh):
+                    fut.set_result(res)
+        except BaseException as exc:
+            for _, fut in mine.values():
+                if not fut.done():
+                    fut.set_exception(exc)
+            raise
+        finally:
+            with self._lock:
+                for k in mine:
+                    self._pending.pop(k, None)
+        return [(mine[k][1] if k in mine else theirs[k]).result() for k in keys]
 
 
 @dataclass(frozen=True)
@@ -81,12 +125,14 @@ class PlanRequest:
 
 class PlanningService:
     """Actor body (see module doc). ``pool``: a ``SimPool`` to share (None: make one with
-    ``workers`` actors); ``local_sim``: simulate in this actor instead (tests, no pool)."""
+    ``workers`` actors); ``local_sim``: simulate in this actor instead (tests, no pool);
+    ``engine``: the CNN's inference engine (``PredictorCnn.load``)."""
 
     def __init__(self, model_path: str | None = None, *, pool: SimPool | None = None,
                  workers: int | None = None, cache_path: str | None = None, device: str = "cpu",
-                 local_sim: bool = False):
-        self.cnn = PredictorCnn.load(model_path, device=device) if model_path else None
+                 local_sim: bool = False, engine: str = "auto"):
+        self.cnn = (PredictorCnn.load(model_path, device=device, engine=engine) if model_path
+                    else None)
         self.model_path = model_path
         self.pool = None
         if local_sim:
@@ -95,7 +141,8 @@ class PlanningService:
             self.pool = pool if pool is not None else SimPool(workers)
             backend = PoolSimulator(self.pool)
         self.cache = ScoreCache(cache_path)
-        self.base = Scorer(backend, self.cnn, self.cache)
+        self.simulations = SharedSimulations(backend)
+        self.base = Scorer(self.simulations, self.cnn, self.cache)
         self._active = 0
         self._peak = 0
         self._count_lock = threading.Lock()

@@ -49,3 +49,40 @@ def test_service_serves_two_concurrent_requests_on_the_pool(ray_local):
     local = SimPlanner().solve(PlanningProblem(hexagon, PARAMS, 5), Scorer(LocalSimulator()))
     assert [s.score for s in local.steps] == [s.score for s in results[0].steps]
     assert local.robustness == results[0].robustness
+
+
+def test_concurrent_callers_share_simulations_in_flight():
+    """Two threads asking for overlapping operations: each operation is simulated once, and both
+    get the same scores as a lone caller."""
+    import threading
+    import time
+
+    from rap.farm.service import SharedSimulations
+    from rap.plan.cache import CachedScore
+    from rap.plan.problem import PlanningProblem
+
+    asm = load_assembly(ASSEMBLIES / "hexagon.json")
+    problem = PlanningProblem(asm, PARAMS, root_seed=5)
+    ops = list(problem.candidates(problem.whole))
+    calls = []
+
+    class Slow:
+        def simulate_many(self, problem, batch):
+            calls.append([problem.key(op) for op in batch])
+            time.sleep(0.3)
+            return [CachedScore(len(problem.key(op)) / 100, 1, 1) for op in batch]
+
+    shared = SharedSimulations(Slow())
+    out = {}
+    threads = [threading.Thread(target=lambda n=n, part=part: out.__setitem__(
+        n, shared.simulate_many(problem, part))) for n, part in enumerate((ops[:6], ops[3:]))]
+    for t in threads:
+        t.start()
+        time.sleep(0.05)
+    for t in threads:
+        t.join()
+    simulated = [k for batch in calls for k in batch]
+    assert len(simulated) == len(set(simulated)) == len({problem.key(op) for op in ops})
+    assert shared.shared == 3
+    alone = Slow().simulate_many(problem, ops)
+    assert out[0] + out[1][3:] == alone

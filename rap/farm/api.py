@@ -1,0 +1,117 @@
+"""The planning service's contract, without ray or fastapi: its settings and its request parser.
+
+``ServeConfig`` holds every setting of ``rap-farm serve`` (``check()`` refuses, in one line, what
+must not start: a non-loopback host without a bearer token, a short token, a bad port).
+``parse_plan_request(body)`` turns a ``POST /plan`` body into ``(assembly, method, root seed)`` or
+raises ``BadRequest(status, one line)``; numbers are parsed as decimals, exactly as
+``rap.assembly.load_assembly`` reads a file, and an invalid assembly gets the CLI's
+``AssemblyError`` text with ``assembly`` as its source. ``rap.farm.serve`` serves them over HTTP.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+from dataclasses import asdict, dataclass
+from decimal import Decimal, InvalidOperation
+
+from rap.assembly import AssemblyError, parse_assembly
+from rap.errors import InputError
+from rap.plan.planners import METHODS
+from rap.seeds import DEFAULT_ROOT_SEED
+
+__all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "is_loopback", "REQUEST_KEYS"]
+
+REQUEST_KEYS = ("assembly", "method", "seed")
+
+
+@dataclass(frozen=True)
+class ServeConfig:
+    """Every setting of the service. ``token`` is never part of ``to_dict()``."""
+
+    host: str = "127.0.0.1"
+    port: int = 8000
+    model_path: str | None = None  # None: plan without a CNN (method rap is refused)
+    workers: int | None = None  # simulation actors; None: every CPU of the cluster
+    cache_path: str | None = None  # score cache file; None: memory only
+    token: str | None = None
+    trials: int = 100  # simulator trials per operation
+    max_body_bytes: int = 1 << 20
+    max_parts: int = 64
+    max_concurrent: int = 16  # requests planned at once
+    plan_budget_s: float = 600.0  # wall-time budget of one request's search
+    cache_flush_s: float = 30.0  # write the cache file at most this often
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d.pop("token")
+        d["auth"] = "bearer" if self.token else "none"
+        return d
+
+    def check(self) -> None:
+        """Raise ``InputError`` (one line) for a configuration that must not start."""
+        if not 0 < self.port < 65536:
+            raise InputError(f"--port {self.port}: choose 1..65535")
+        if self.token is not None and len(self.token) < 16:
+            raise InputError("--token: use at least 16 characters (e.g. python -c 'import secrets; "
+                             "print(secrets.token_urlsafe(32))')")
+        if not is_loopback(self.host) and not self.token:
+            raise InputError(f"--host {self.host}: serving beyond this machine needs a bearer "
+                             f"token; pass --token or set RAP_FARM_TOKEN")
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` names only this machine (127.0.0.0/8, ::1, localhost)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+class BadRequest(Exception):
+    """A request the service refuses: HTTP ``status`` and a one-line ``message``."""
+
+    def __init__(self, status: int, message: str):
+        super().__init__(message)
+        self.status, self.message = status, message
+
+
+def _reject_constant(name: str):
+    raise ValueError(f"non-finite number {name} is not allowed")
+
+
+def parse_plan_request(body: bytes, *, max_parts: int = 64):
+    """(assembly, method, root seed) of a ``POST /plan`` body, or ``BadRequest``."""
+    try:
+        doc = json.loads(body, parse_float=Decimal, parse_int=int,
+                         parse_constant=_reject_constant)
+    except (ValueError, RecursionError, InvalidOperation) as exc:
+        why = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
+        raise BadRequest(400, f"request body is not valid JSON: {why}") from None
+    if not isinstance(doc, dict):
+        raise BadRequest(400, "request body must be a JSON object {\"assembly\": {...}, "
+                              "\"method\": ..., \"seed\": ...}")
+    unknown = sorted(set(doc) - set(REQUEST_KEYS))
+    if unknown:
+        raise BadRequest(400, f"unknown key {unknown[0]!r} (expected assembly, method, seed)")
+    if "assembly" not in doc:
+        raise BadRequest(400, "missing key 'assembly' (the assembly JSON object)")
+    method = doc.get("method", "rap")
+    if not isinstance(method, str) or method not in METHODS:
+        raise BadRequest(400, f"method {method!r}: choose one of {', '.join(METHODS)}")
+    seed = doc.get("seed", DEFAULT_ROOT_SEED)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not -(1 << 63) <= seed < (1 << 63):
+        raise BadRequest(400, f"seed {seed!r}: must be an integer in [-2^63, 2^63)")
+    raw = doc["assembly"]
+    if isinstance(raw, dict) and isinstance(raw.get("parts"), list) and len(raw["parts"]) > max_parts:
+        raise BadRequest(413, f"assembly: {len(raw['parts'])} parts; this service plans at most "
+                              f"{max_parts}")
+    try:
+        assembly = parse_assembly(raw, source="assembly", default_name="assembly")
+    except AssemblyError as exc:
+        raise BadRequest(400, str(exc)) from None
+    except RecursionError:
+        raise BadRequest(400, "assembly: nested too deeply") from None
+    return assembly, method, int(seed)

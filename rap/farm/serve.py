@@ -1,0 +1,328 @@
+"""The planning service over HTTP: a Ray Serve application with a FastAPI ingress (``rap-farm serve``).
+
+One Serve replica, ``PlanningApp``, holds a ``rap.farm.service.PlanningService``: the CNN loaded
+once, one content-keyed score cache, and a ``SimPool`` of simulation actors (one per CPU of the Ray
+cluster unless ``workers``), all kept warm between requests. The replica asks for no CPU itself.
+
+Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``):
+
+* ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
+  actor has started (before that, Serve answers 503 or the connection is refused).
+* ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
+  "random" (default "rap"), "seed": <int> (optional)}``. 200 with exactly the document that
+  ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
+  ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
+  or ``"feasible": null`` when the request's time budget ran out. The header ``X-Plan-Details``
+  carries ``{"eval_seconds", "stats"}`` (what ``plan --server`` prints besides the table).
+
+Bad requests get a 4xx status and ``{"error": "<one line>"}``: 400 for a body that is not JSON or
+not an object of those keys, an invalid assembly (the one-line ``AssemblyError`` text of the CLI,
+with ``assembly`` as the source), an unknown method or a seed that is not an integer; 413 for a
+body over ``max_body_bytes`` or an assembly of more than ``max_parts`` parts; 401 without the bearer
+token when one is set. Numbers are parsed as decimals, exactly as ``load_assembly`` reads a file.
+Any failure while planning is a 500 with one line; the replica keeps serving.
+
+Concurrency: each request is planned on one of ``max_concurrent`` threads of the replica; the
+requests' simulation batches go to the shared pool at the same time (``SimPool`` keeps its
+bookkeeping thread-safe), CNN forward passes take turns. Further requests wait in Serve's queue.
+
+The request contract (``ServeConfig``, ``parse_plan_request``) lives in ``rap.farm.api``, which
+imports neither ray nor fastapi.
+
+Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
+with a token every endpoint but the documentation needs ``Authorization: Bearer <token>``. The token
+travels in clear text over plain HTTP: beyond one machine, put the service behind TLS (a reverse
+proxy) or on a private network, as docs/CLUSTER.md says.
+"""
+
+# No "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time,
+# and Serve rebuilds the class-based routes where string annotations do not resolve.
+
+import asyncio
+import hmac
+import json
+import logging
+import os
+import signal
+import socket
+import threading
+import time
+import urllib.error
+import urllib.request
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict
+from pathlib import Path
+from typing import Callable
+
+from fastapi import FastAPI, Request, Security
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from ray import serve
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from rap import __version__
+from rap.client import DETAILS_HEADER
+from rap.errors import InputError, RapError
+from rap.plan.planners import METHODS
+from rap.plan.scorers import Budget
+from rap.seeds import DEFAULT_ROOT_SEED
+
+from rap.farm.api import BadRequest, ServeConfig, parse_plan_request
+
+__all__ = ["PlanningApp", "build_app", "run_service", "wait_healthy", "APP_NAME"]
+
+APP_NAME = "rap-farm"
+_log = logging.getLogger("rap.farm.serve")
+
+
+def _error(status: int, message: str, headers: dict | None = None) -> JSONResponse:
+    line = " ".join(str(message).split())[:500] or "error"
+    return JSONResponse({"error": line}, status_code=status, headers=headers)
+
+
+api = FastAPI(
+    title="rap-farm planning service",
+    version=__version__,
+    description="Robust assembly sequences of planar parts (RAP, simulator-only, optimal, random). "
+                "POST an assembly to /plan; the answer is the document `rap-farm plan --out` "
+                "writes. Errors are `{\"error\": \"one line\"}` with a 4xx/5xx status.",
+)
+_bearer = HTTPBearer(auto_error=False, description="Needed when the service was started with a "
+                                                   "token (always beyond loopback).")
+
+_PLAN_BODY_SCHEMA = {
+    "requestBody": {
+        "required": True,
+        "content": {"application/json": {"schema": {
+            "type": "object", "required": ["assembly"], "additionalProperties": False,
+            "properties": {
+                "assembly": {"type": "object", "description": "An assembly file's JSON: "
+                             "{\"name\": ..., \"parts\": [{\"id\", \"polygon\", \"holes\"}]}"},
+                "method": {"type": "string", "enum": list(METHODS), "default": "rap"},
+                "seed": {"type": "integer", "description": "Root seed of the simulator's "
+                         "randomness", "default": DEFAULT_ROOT_SEED}}}}},
+    },
+    "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document)"},
+                  "400": {"description": "Malformed request or invalid assembly"},
+                  "401": {"description": "Missing or wrong bearer token"},
+                  "413": {"description": "Body or assembly too large"}},
+}
+
+
+@api.exception_handler(StarletteHTTPException)
+async def _http_error(request: Request, exc: StarletteHTTPException):
+    return _error(exc.status_code, exc.detail if isinstance(exc.detail, str) else "error",
+                  getattr(exc, "headers", None))
+
+
+@api.exception_handler(RequestValidationError)
+async def _validation_error(request: Request, exc: RequestValidationError):
+    first = exc.errors()[0] if exc.errors() else {}
+    return _error(400, f"invalid request: {first.get('msg', 'validation failed')}")
+
+
+@serve.deployment(name="planner", num_replicas=1, ray_actor_options={"num_cpus": 0},
+                  max_ongoing_requests=64)
+@serve.ingress(api)
+class PlanningApp:
+    """The replica (see module doc). ``config``: ``ServeConfig`` fields as a dict."""
+
+    def __init__(self, config: dict):
+        from rap.farm.service import PlanningService
+        from rap.sim.params import SimParams
+
+        self.config = ServeConfig(**config)
+        self.params = SimParams(trials=self.config.trials)
+        self.service = PlanningService(self.config.model_path, workers=self.config.workers,
+                                       cache_path=self.config.cache_path)
+        if self.service.pool is not None:
+            self.service.pool.ready(timeout_s=600)
+        self._executor = ThreadPoolExecutor(self.config.max_concurrent,
+                                            thread_name_prefix="plan")
+        self._flush_lock = threading.Lock()
+        self._flushed = time.monotonic()
+        self.served = 0
+
+    # -- helpers -------------------------------------------------------------------------------------
+    def _authorised(self, creds: HTTPAuthorizationCredentials | None) -> JSONResponse | None:
+        token = self.config.token
+        if not token:
+            return None
+        if creds is None or creds.scheme.lower() != "bearer" or not hmac.compare_digest(
+                creds.credentials.encode(), token.encode()):
+            return _error(401, "missing or wrong bearer token (Authorization: Bearer <token>)",
+                          {"WWW-Authenticate": "Bearer"})
+        return None
+
+    def _plan(self, assembly, method: str, seed: int):
+        from rap.farm.service import PlanRequest
+
+        req = PlanRequest(assembly, method, self.params, seed,
+                          budget=Budget(max_seconds=self.config.plan_budget_s))
+        result = self.service.plan(req)
+        self._maybe_flush()
+        return result
+
+    def _maybe_flush(self, force: bool = False) -> None:
+        now = time.monotonic()
+        if not force and now - self._flushed < self.config.cache_flush_s:
+            return
+        if self._flush_lock.acquire(blocking=force):
+            try:
+                self._flushed = now
+                self.service.flush()
+            except OSError as exc:  # a full disk costs the cache, not the service
+                _log.warning("score cache not written: %s", exc)
+            finally:
+                self._flush_lock.release()
+
+    # -- endpoints ------------------------------------------------------------------------------------
+    @api.get("/health", summary="Ready to plan")
+    async def health(self, creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        denied = self._authorised(creds)
+        if denied is not None:
+            return denied
+        info = self.service.ready()
+        model = Path(info["model"]).name if info["model"] else None
+        return {"status": "ok", "version": __version__, "model": model, "workers": info["pool"],
+                "cached_scores": info["cached_scores"], "trials": self.config.trials,
+                "served": self.served, "peak_concurrent": self.service.peak_concurrency()}
+
+    @api.post("/plan", summary="Plan a robust assembly sequence", openapi_extra=_PLAN_BODY_SCHEMA)
+    async def plan(self, request: Request,
+                   creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        denied = self._authorised(creds)
+        if denied is not None:
+            return denied
+        limit = self.config.max_body_bytes
+        length = request.headers.get("content-length")
+        if length is not None and (not length.isdigit() or int(length) > limit):
+            return _error(413, f"request body over {limit} bytes")
+        body = bytearray()
+        async for chunk in request.stream():
+            body += chunk
+            if len(body) > limit:
+                return _error(413, f"request body over {limit} bytes")
+        try:
+            assembly, method, seed = parse_plan_request(bytes(body),
+                                                        max_parts=self.config.max_parts)
+            if method == "rap" and self.service.cnn is None:
+                raise BadRequest(400, "method 'rap': this service has no CNN model; ask for "
+                                      "method sim")
+        except BadRequest as exc:
+            return _error(exc.status, exc.message)
+        loop = asyncio.get_running_loop()
+        try:
+            result = await loop.run_in_executor(self._executor, self._plan, assembly, method, seed)
+        except RapError as exc:
+            return _error(400 if isinstance(exc, InputError) else 500, str(exc))
+        except Exception as exc:  # never a traceback to the client, never a dead replica
+            _log.exception("planning %s with %s failed", assembly.name, method)
+            return _error(500, f"planning failed: {type(exc).__name__}: {exc}")
+        self.served += 1
+        details = json.dumps({"eval_seconds": result.eval_seconds, "stats": result.stats},
+                             default=str, separators=(",", ":"))
+        return JSONResponse(result.to_json(), headers={DETAILS_HEADER: details})
+
+    def __del__(self):
+        try:
+            self._maybe_flush(force=True)
+        except Exception:
+            pass
+
+
+def build_app(config: ServeConfig):
+    """The Serve application (``PlanningApp`` bound to ``config``)."""
+    return PlanningApp.options(max_ongoing_requests=config.max_concurrent + 16).bind(
+        {**asdict(config)})
+
+
+def _port_free(host: str, port: int) -> bool:
+    family = socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host.strip("[]"), port))
+        except OSError:
+            return False
+    return True
+
+
+def _url(host: str, port: int) -> str:
+    h = "127.0.0.1" if host in ("0.0.0.0", "") else ("[::1]" if host == "::" else host)
+    if ":" in h and not h.startswith("["):
+        h = f"[{h}]"
+    return f"http://{h}:{port}"
+
+
+def wait_healthy(url: str, token: str | None, timeout_s: float) -> dict:
+    """Poll ``url``/health until it answers 200; its JSON. ``TimeoutError`` otherwise."""
+    deadline = time.monotonic() + timeout_s
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    last = "no answer"
+    while time.monotonic() < deadline:
+        try:
+            req = urllib.request.Request(url + "/health", headers=headers)
+            with urllib.request.urlopen(req, timeout=10) as resp:
+                return json.loads(resp.read())
+        except urllib.error.HTTPError as exc:
+            last = f"HTTP {exc.code}"
+        except (urllib.error.URLError, OSError, ValueError) as exc:
+            last = str(getattr(exc, "reason", exc))
+        time.sleep(0.5)
+    raise TimeoutError(f"the service did not become healthy in {timeout_s:.0f} s ({last})")
+
+
+def run_service(config: ServeConfig, *, address: str | None = None,
+                echo: Callable[[str], None] = print, ready_timeout_s: float = 600.0,
+                stop: threading.Event | None = None) -> None:
+    """Start (or join) Ray, deploy the service, print where it listens and serve until SIGINT or
+    SIGTERM (or ``stop`` is set); then remove it (and stop the embedded Ray, if started here)."""
+    from rap.farm.runtime import connect
+
+    config.check()
+    if address is None and not os.environ.get("RAY_ADDRESS") and not _port_free(config.host,
+                                                                                 config.port):
+        raise InputError(f"--port {config.port}: {config.host}:{config.port} is already in use")
+    logging.getLogger("ray.serve").setLevel(logging.WARNING)  # our own line says where it runs
+    stop = stop or threading.Event()
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, lambda *_: stop.set())
+    try:
+        with connect(address) as rt:
+            quiet = {"log_level": "WARNING", "enable_access_log": False}
+            try:
+                serve.start(http_options={"host": config.host, "port": config.port},
+                            logging_config=quiet)
+                serve.run(build_app(config), name=APP_NAME, route_prefix="/", blocking=False,
+                          logging_config=quiet)
+            except Exception as exc:
+                first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+                raise InputError(f"cannot start the planning service: {first[:300]}") from None
+            try:
+                url = _url(config.host, config.port)
+                if not rt.started_here:  # the proxy runs on the cluster's head node
+                    health = None
+                else:
+                    health = wait_healthy(url, config.token, ready_timeout_s)
+                where = url if rt.started_here else f"port {config.port} of the cluster's head node"
+                echo(f"rap-farm planning service on {where} (docs: /docs)"
+                     + (f"; {health['workers']} simulation workers" if health else "")
+                     + "; Ctrl-C stops it")
+                while not stop.wait(1.0):
+                    pass
+                echo("stopping the planning service ...")
+            finally:
+                try:
+                    if rt.started_here:
+                        serve.shutdown()
+                    else:
+                        serve.delete(APP_NAME)
+                except Exception:
+                    pass
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -1,0 +1,78 @@
+"""Usage errors of every command: the CLI stack's short usage message (or one line), exit status 2.
+
+One case per command (and a few per option kind), run in-process through ``rap.cli.main`` with the
+typer/click versions installed; ``test_usage_error_in_a_subprocess`` runs the console script itself.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from rap.cli import COMMAND_MODULES
+
+ROOT = Path(__file__).resolve().parents[1]
+HEXAGON = str(ROOT / "assemblies" / "hexagon.json")
+
+#: (argv, a word the message must contain); every command appears at least once
+CASES = [
+    (["nosuch"], "nosuch"),
+    (["inspect"], "Missing"),
+    (["inspect", HEXAGON, "--bogus"], "--bogus"),
+    (["show", HEXAGON], "Missing"),
+    (["generate", "grid", "10", "-o", "g.json"], "--k"),
+    (["generate", "tiling", "--parts", "many", "-o", "t.json"], "--parts"),
+    (["generate", "nosuch"], "nosuch"),
+    (["simulate"], "Missing"),
+    (["simulate", HEXAGON, "--moving", "hub", "--direction"], "--direction"),
+    (["label"], "Missing"),
+    (["label", HEXAGON, "--workers", "0", "--out", "d"], "--workers"),
+    (["train"], "Missing"),
+    (["evaluate"], "Missing"),
+    (["plan"], "Missing"),
+    (["plan", "--methd", "x", "A.json"], "--methd"),
+    (["plan", HEXAGON, "--trials", "0"], "--trials"),
+    (["plan", HEXAGON, "--seed", "x"], "--seed"),
+    (["experiment"], "Missing"),
+    (["demo", "--bogus"], "--bogus"),
+    (["serve", "--port", "http"], "--port"),
+    (["serve", "extra"], "unexpected extra argument"),
+]
+
+
+def test_every_command_has_a_usage_error_case():
+    covered = {argv[0] for argv, _ in CASES}
+    assert set(COMMAND_MODULES) <= covered
+
+
+@pytest.mark.parametrize("argv,needle", CASES, ids=[" ".join(a)[:40] for a, _ in CASES])
+def test_usage_error_exits_2_with_the_short_usage_message(run_cli, argv, needle, tmp_path,
+                                                          monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_cli(*argv)
+    assert code == 2, (out, err)
+    assert "Traceback" not in err and "File \"" not in err, err
+    assert needle in err, err
+    assert len(err.strip().splitlines()) <= 6, err
+    assert not any(tmp_path.iterdir()), "a usage error wrote a file"
+
+
+def test_version_and_help_exit_0(run_cli):
+    code, out, _ = run_cli("--version")
+    assert code == 0 and out.startswith("rap-farm ")
+    code, out, _ = run_cli("plan", "--help")
+    assert code == 0 and "--server" in out
+
+
+def test_usage_error_in_a_subprocess(tmp_path):
+    """The console-script path (``python -m rap.cli``) with the installed CLI stack."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.run([sys.executable, "-m", "rap.cli", "plan", "--methd", "x", "A.json"],
+                       capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
+    assert p.returncode == 2, p.stderr
+    assert "No such option" in p.stderr and "Traceback" not in p.stderr
+    assert len(p.stderr.strip().splitlines()) <= 6
