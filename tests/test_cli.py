@@ -76,3 +76,24 @@ def test_usage_error_in_a_subprocess(tmp_path):
     assert p.returncode == 2, p.stderr
     assert "No such option" in p.stderr and "Traceback" not in p.stderr
     assert len(p.stderr.strip().splitlines()) <= 6
+
+
+def test_a_local_plan_and_a_refused_serve_need_no_ray_torch_matplotlib_or_pyarrow(tmp_path):
+    """The quick path: ``plan`` without --address plans in this process (the shipped model runs
+    without torch); ``serve`` refuses a bad configuration before importing Ray."""
+    blocked = ("ray", "torch", "matplotlib", "pyarrow", "pandas")
+    code = (f"import sys\nfor m in {blocked!r}: sys.modules[m] = None\n"
+            "from rap.cli import main\nmain(sys.argv[1:])")
+    env = dict(os.environ, PYTHONPATH=str(ROOT), RAP_CACHE=str(tmp_path / "cache.json"))
+    env.pop("RAY_ADDRESS", None)
+    env.pop("RAP_FARM_TOKEN", None)
+    p = subprocess.run([sys.executable, "-c", code, "plan", HEXAGON, "--trials", "4",
+                        "--out", "p.json"], capture_output=True, text=True, env=env, cwd=tmp_path,
+                       timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert "robustness R" in p.stdout and (tmp_path / "p.json").is_file()
+    assert "could not compare" not in p.stderr, p.stderr
+    p = subprocess.run([sys.executable, "-c", code, "serve", "--host", "0.0.0.0"],
+                       capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
+    assert p.returncode == 2 and "token" in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1, p.stderr

@@ -2,7 +2,9 @@
 
 One Serve replica, ``PlanningApp``, holds a ``rap.farm.service.PlanningService``: the CNN loaded
 once, one content-keyed score cache, and a ``SimPool`` of simulation actors (one per CPU of the Ray
-cluster unless ``workers``), all kept warm between requests. The replica asks for no CPU itself.
+cluster unless ``workers``), all kept warm between requests. The replica asks for no CPU itself and
+runs on the head node, like Serve's HTTP proxy (``proxy_location="HeadOnly"``): on a cluster the
+service listens on ``host:port`` of the head node and the cache file lives there.
 
 Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``):
 
@@ -122,7 +124,13 @@ async def _validation_error(request: Request, exc: RequestValidationError):
     return _error(400, f"invalid request: {first.get('msg', 'validation failed')}")
 
 
-@serve.deployment(name="planner", num_replicas=1, ray_actor_options={"num_cpus": 0},
+#: the replica asks for no CPU and stays on the head node, next to the HTTP proxy (HeadOnly) and the
+#: score cache file; its simulation actors spread over the cluster
+_HEAD = "node:__internal_head__"
+
+
+@serve.deployment(name="planner", num_replicas=1,
+                  ray_actor_options={"num_cpus": 0, "resources": {_HEAD: 0.001}},
                   max_ongoing_requests=64)
 @serve.ingress(api)
 class PlanningApp:
@@ -295,8 +303,8 @@ def run_service(config: ServeConfig, *, address: str | None = None,
         with connect(address) as rt:
             quiet = {"log_level": "WARNING", "enable_access_log": False}
             try:
-                serve.start(http_options={"host": config.host, "port": config.port},
-                            logging_config=quiet)
+                serve.start(proxy_location="HeadOnly", logging_config=quiet,
+                            http_options={"host": config.host, "port": config.port})
                 serve.run(build_app(config), name=APP_NAME, route_prefix="/", blocking=False,
                           logging_config=quiet)
             except Exception as exc:

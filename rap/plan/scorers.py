@@ -80,6 +80,13 @@ def _simulate_task(args) -> CachedScore:  # runs in a worker process
     return _simulate_one(None, *args)
 
 
+def _worker_init() -> None:
+    """Worker processes leave Ctrl-C to the parent, which stops them (no traceback per worker)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 class LocalSimulator:
     """``rap.sim.simulator.simulate`` on this machine (``simulate`` replaceable): sequentially in
     this process, or over ``processes`` forked workers for batches of ``min_batch`` or more
@@ -103,7 +110,8 @@ class LocalSimulator:
                 from rap.sim import simulator  # noqa: F401  (imported once, before the fork)
 
                 self._executor = ProcessPoolExecutor(self.processes,
-                                                     mp_context=multiprocessing.get_context("fork"))
+                                                     mp_context=multiprocessing.get_context("fork"),
+                                                     initializer=_worker_init)
             return self._executor
 
     def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
