@@ -1,5 +1,10 @@
 """The planning service's contract, without ray or fastapi: its settings and its request parser.
 
+Every request's work is bounded: at most ``max_parts`` parts (``max_optimal_parts`` for the
+optimum, whose search visits every reachable subassembly), ``max_simulations`` fresh simulations
+and ``plan_budget_s`` seconds of search; a request that reaches a budget gets the
+``"feasible": null, "status": "budget spent"`` document.
+
 ``ServeConfig`` holds every setting of ``rap-farm serve`` (``check()`` refuses, in one line, what
 must not start: a non-loopback host without a bearer token, a short token, a bad port).
 ``parse_plan_request(body)`` turns a ``POST /plan`` body into ``(assembly, method, root seed)`` or
@@ -38,6 +43,8 @@ class ServeConfig:
     trials: int = 100  # simulator trials per operation
     max_body_bytes: int = 1 << 20
     max_parts: int = 64
+    max_optimal_parts: int = 16  # the optimum's search visits every reachable subassembly
+    max_simulations: int = 2000  # fresh simulations of one request's search
     max_concurrent: int = 16  # requests planned at once
     plan_budget_s: float = 600.0  # wall-time budget of one request's search
     cache_flush_s: float = 30.0  # write the cache file at most this often
@@ -82,7 +89,7 @@ def _reject_constant(name: str):
     raise ValueError(f"non-finite number {name} is not allowed")
 
 
-def parse_plan_request(body: bytes, *, max_parts: int = 64):
+def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: int = 16):
     """(assembly, method, root seed) of a ``POST /plan`` body, or ``BadRequest``."""
     try:
         doc = json.loads(body, parse_float=Decimal, parse_int=int,
@@ -114,4 +121,7 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64):
         raise BadRequest(400, str(exc)) from None
     except RecursionError:
         raise BadRequest(400, "assembly: nested too deeply") from None
+    if method == "optimal" and len(assembly) > max_optimal_parts:
+        raise BadRequest(413, f"method 'optimal': {len(assembly)} parts; this service finds the "
+                              f"optimum for at most {max_optimal_parts} (ask for rap or sim)")
     return assembly, method, int(seed)

@@ -20,7 +20,8 @@ Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``)
 Bad requests get a 4xx status and ``{"error": "<one line>"}``: 400 for a body that is not JSON or
 not an object of those keys, an invalid assembly (the one-line ``AssemblyError`` text of the CLI,
 with ``assembly`` as the source), an unknown method or a seed that is not an integer; 413 for a
-body over ``max_body_bytes`` or an assembly of more than ``max_parts`` parts; 401 without the bearer
+body over ``max_body_bytes`` or an assembly of more than ``max_parts`` parts (``max_optimal_parts``
+for method optimal); 401 without the bearer
 token when one is set. Numbers are parsed as decimals, exactly as ``load_assembly`` reads a file.
 Any failure while planning is a 500 with one line; the replica keeps serving.
 
@@ -167,7 +168,8 @@ class PlanningApp:
         from rap.farm.service import PlanRequest
 
         req = PlanRequest(assembly, method, self.params, seed,
-                          budget=Budget(max_seconds=self.config.plan_budget_s))
+                          budget=Budget(max_simulations=self.config.max_simulations,
+                                        max_seconds=self.config.plan_budget_s))
         result = self.service.plan(req)
         self._maybe_flush()
         return result
@@ -213,8 +215,9 @@ class PlanningApp:
             if len(body) > limit:
                 return _error(413, f"request body over {limit} bytes")
         try:
-            assembly, method, seed = parse_plan_request(bytes(body),
-                                                        max_parts=self.config.max_parts)
+            assembly, method, seed = parse_plan_request(
+                bytes(body), max_parts=self.config.max_parts,
+                max_optimal_parts=self.config.max_optimal_parts)
             if method == "rap" and self.service.cnn is None:
                 raise BadRequest(400, "method 'rap': this service has no CNN model; ask for "
                                       "method sim")
