@@ -14,16 +14,17 @@ Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``)
   "random" (default "rap"), "seed": <int> (optional)}``. 200 with exactly the document that
   ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
   ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
-  or ``"feasible": null`` when the request's time budget ran out. The header ``X-Plan-Details``
-  carries ``{"eval_seconds", "stats"}`` (what ``plan --server`` prints besides the table).
+  or ``"feasible": null`` when the request's budget (simulations, seconds) ran out. The header
+  ``X-Plan-Details`` carries ``{"eval_seconds", "stats"}`` (what ``plan --server`` prints besides
+  the table).
 
 Bad requests get a 4xx status and ``{"error": "<one line>"}``: 400 for a body that is not JSON or
 not an object of those keys, an invalid assembly (the one-line ``AssemblyError`` text of the CLI,
 with ``assembly`` as the source), an unknown method or a seed that is not an integer; 413 for a
 body over ``max_body_bytes`` or an assembly of more than ``max_parts`` parts (``max_optimal_parts``
-for method optimal); 401 without the bearer
-token when one is set. Numbers are parsed as decimals, exactly as ``load_assembly`` reads a file.
-Any failure while planning is a 500 with one line; the replica keeps serving.
+for method optimal); 401 without the bearer token when one is set. Numbers are parsed as decimals,
+exactly as ``load_assembly`` reads a file. Any failure while planning is a 500 with one line; the
+replica keeps serving.
 
 Concurrency: each request is planned on one of ``max_concurrent`` threads of the replica; the
 requests' simulation batches go to the shared pool at the same time (``SimPool`` keeps its
