@@ -32,7 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rap.assembly import load_assembly  # noqa: E402
+from rap.io import load_assembly  # noqa: E402
 from rap.enumerate import enumerate_operations, label_seed, sample_operations  # noqa: E402
 from rap.sim.params import SimParams  # noqa: E402
 

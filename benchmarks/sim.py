@@ -41,7 +41,7 @@ def fixture_cases():
 
 
 def assembly_cases(limit: int | None):
-    from rap.assembly import load_assembly
+    from rap.io import load_assembly
     from rap.geometry.ndbg import build_ndbg
     from rap.geometry.partitions import online_partitions
 

@@ -8,8 +8,8 @@ from fractions import Fraction
 
 import pytest
 
-from rap.assembly import (AssemblyError, assembly_to_json, load_assembly, parse_assembly,
-                          signed_area2)
+from rap.assembly import AssemblyError, assembly_to_json, signed_area2
+from rap.io import load_assembly, parse_assembly
 
 
 def _sq(x, y, s=1):
