@@ -35,6 +35,7 @@ __all__ = [
     "Part",
     "Assembly",
     "AssemblyError",
+    "DEFAULT_FAMILY",
     "assembly_from_json",
     "read_assembly_json",
     "assembly_to_json",
@@ -85,13 +86,22 @@ class Part:
         return (signed_area2(self.outer) + sum(signed_area2(h) for h in self.holes)) / 2
 
 
+DEFAULT_FAMILY = "custom"
+
+
 @dataclass(frozen=True)
 class Assembly:
-    """A named tuple of parts with distinct ids in their final placements."""
+    """A named tuple of parts with distinct ids in their final placements.
+
+    ``family`` says where the assembly comes from (a generator family of
+    ``rap.geometry.families``, ``reference`` for the six shipped ones, ``custom`` otherwise); it
+    is metadata, like ``source``, and takes no part in equality or the geometry hash.
+    """
 
     name: str
     parts: tuple[Part, ...]
     source: str = field(default="<memory>", compare=False)
+    family: str = field(default=DEFAULT_FAMILY, compare=False)
 
     @cached_property
     def ids(self) -> tuple[str, ...]:
@@ -181,6 +191,9 @@ def assembly_from_json(data: Any, source: str = "<memory>", default_name: str = 
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name:
         raise AssemblyError(source, None, "'name' must be a non-empty string")
+    family = data.get("family", DEFAULT_FAMILY)
+    if not isinstance(family, str) or not family or not family.replace("-", "").replace("_", "").isalnum():
+        raise AssemblyError(source, None, "'family' must be a non-empty word (letters, digits, - or _)")
     raw_parts = data["parts"]
     if not isinstance(raw_parts, list):
         raise AssemblyError(source, None, "'parts' must be a list")
@@ -209,7 +222,7 @@ def assembly_from_json(data: Any, source: str = "<memory>", default_name: str = 
         holes = tuple(_oriented(_ring(h, source, pid, f"hole {j}"), ccw=False)
                       for j, h in enumerate(raw_holes))
         parts.append(Part(pid, outer, holes))
-    return Assembly(name, tuple(parts), source)
+    return Assembly(name, tuple(parts), source, family)
 
 
 def read_assembly_json(path: str | Path) -> Assembly:
@@ -251,8 +264,10 @@ def _num_json(v: Fraction) -> int | float:
 
 def assembly_to_json(assembly: Assembly) -> dict:
     """The JSON document of an assembly (exact where coordinates have finite decimals)."""
+    family = {"family": assembly.family} if assembly.family != DEFAULT_FAMILY else {}
     return {
         "name": assembly.name,
+        **family,
         "parts": [
             {"id": p.id, "polygon": [[_num_json(x), _num_json(y)] for x, y in p.outer],
              **({"holes": [[[_num_json(x), _num_json(y)] for x, y in h] for h in p.holes]}

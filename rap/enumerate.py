@@ -89,8 +89,8 @@ def partition_operations(partition, geometry_hash: str, directions_per_range: in
                      f"{partition.range_start}", f"{partition.range_end}", partition.span])
     rng = derive_rng(root_seed, hashlib.sha256(text.encode()).hexdigest())
     ops = []
-    for (ux, uy), (dx, dy) in directions_in_range(partition, directions_per_range, rng):
-        ops.append(Operation(partition.moving, partition.fixed, (-ux, -uy), (-dx, -dy)))
+    for i, ((ux, uy), (dx, dy)) in enumerate(directions_in_range(partition, directions_per_range, rng)):
+        ops.append(Operation(partition.moving, partition.fixed, (-ux, -uy), (-dx, -dy), i))
     return ops
 
 

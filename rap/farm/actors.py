@@ -155,6 +155,8 @@ class SimWorker:
                 "params": task.params_json,
                 "code_version": __version__,
                 "node": self._node,
+                "family": getattr(assembly, "family", "custom"),
+                "direction_index": int(getattr(op, "direction_index", 0)),
                 "seconds": float(getattr(res, "seconds", t1 - t)),
             })
         return BatchResult(task_id=task.task_id, rows=rows, node=self._node, pid=self._pid,

@@ -56,6 +56,8 @@ def test_dataset_rows_schema_and_readers(reference, ray_local):
     assert t.num_rows == 20
     assert open_dataset(out).schema.equals(SCHEMA, check_metadata=False)
     assert set(t.column("assembly").to_pylist()) == {"grid", "triangles"}
+    assert set(t.column("family").to_pylist()) == {"reference"}  # from the assembly files
+    assert set(t.column("direction_index").to_pylist()) == {0}  # one direction per range
     assert (out / METADATA_FILE).exists()
     imgs = decode_images(open_dataset(out).to_table(columns=["image"]).column("image"))
     assert imgs.shape == (20, 2, 64, 64)
