@@ -9,9 +9,10 @@ Every JSON number is parsed as a decimal (never through a binary float) and stor
 ``fractions.Fraction``, so shared edges and touching contacts stay exact. Rings are
 normalised: outer boundaries counter-clockwise, holes clockwise.
 
-Geometric validity (simple rings, holes inside, interiors disjoint) is checked by
-``rap.geometry.validation`` when a file is loaded; every problem raises ``AssemblyError``
-naming the file, the part and what is wrong.
+This module holds the data and the exact structural parsing only; it imports nothing of
+``rap.geometry``. Geometric validity (simple rings, holes inside, interiors disjoint) is checked by
+``rap.geometry.validation``; ``rap.io.load_assembly`` / ``rap.io.parse_assembly`` do both. Every
+problem raises ``AssemblyError`` naming the file, the part and what is wrong.
 """
 
 from __future__ import annotations
@@ -34,8 +35,9 @@ __all__ = [
     "Part",
     "Assembly",
     "AssemblyError",
-    "load_assembly",
-    "parse_assembly",
+    "DEFAULT_FAMILY",
+    "assembly_from_json",
+    "read_assembly_json",
     "assembly_to_json",
     "signed_area2",
 ]
@@ -84,13 +86,22 @@ class Part:
         return (signed_area2(self.outer) + sum(signed_area2(h) for h in self.holes)) / 2
 
 
+DEFAULT_FAMILY = "custom"
+
+
 @dataclass(frozen=True)
 class Assembly:
-    """A named tuple of parts with distinct ids in their final placements."""
+    """A named tuple of parts with distinct ids in their final placements.
+
+    ``family`` says where the assembly comes from (a generator family of
+    ``rap.geometry.families``, ``reference`` for the six shipped ones, ``custom`` otherwise); it
+    is metadata, like ``source``, and takes no part in equality or the geometry hash.
+    """
 
     name: str
     parts: tuple[Part, ...]
     source: str = field(default="<memory>", compare=False)
+    family: str = field(default=DEFAULT_FAMILY, compare=False)
 
     @cached_property
     def ids(self) -> tuple[str, ...]:
@@ -166,12 +177,12 @@ def _oriented(ring: Ring, ccw: bool) -> Ring:
     return ring if (signed_area2(ring) > 0) == ccw else tuple(reversed(ring))
 
 
-def parse_assembly(data: Any, source: str = "<memory>", default_name: str = "assembly",
-                   validate: bool = True) -> Assembly:
-    """Build an ``Assembly`` from decoded JSON (numbers as ``int``/``Decimal``).
+def assembly_from_json(data: Any, source: str = "<memory>", default_name: str = "assembly") -> Assembly:
+    """Build an ``Assembly`` from decoded JSON (numbers as ``int``/``Decimal``), exactly.
 
-    Raises ``AssemblyError`` for any structural or geometric problem. With ``validate`` the
-    exact geometric checks of ``rap.geometry.validation`` run too (O(n^2 q^2) worst case).
+    Raises ``AssemblyError`` for any structural problem (types, ids, ring sizes, repeated
+    vertices, zero area). Geometric validity is not checked here: ``rap.io.parse_assembly`` adds
+    ``rap.geometry.validation``. O(total vertices).
     """
     if not isinstance(data, dict):
         raise AssemblyError(source, None, "top level must be a JSON object with a 'parts' list")
@@ -180,6 +191,9 @@ def parse_assembly(data: Any, source: str = "<memory>", default_name: str = "ass
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name:
         raise AssemblyError(source, None, "'name' must be a non-empty string")
+    family = data.get("family", DEFAULT_FAMILY)
+    if not isinstance(family, str) or not family or not family.replace("-", "").replace("_", "").isalnum():
+        raise AssemblyError(source, None, "'family' must be a non-empty word (letters, digits, - or _)")
     raw_parts = data["parts"]
     if not isinstance(raw_parts, list):
         raise AssemblyError(source, None, "'parts' must be a list")
@@ -208,16 +222,12 @@ def parse_assembly(data: Any, source: str = "<memory>", default_name: str = "ass
         holes = tuple(_oriented(_ring(h, source, pid, f"hole {j}"), ccw=False)
                       for j, h in enumerate(raw_holes))
         parts.append(Part(pid, outer, holes))
-    assembly = Assembly(name, tuple(parts), source)
-    if validate:
-        from rap.geometry.validation import validate_assembly
-
-        validate_assembly(assembly)
-    return assembly
+    return Assembly(name, tuple(parts), source, family)
 
 
-def load_assembly(path: str | Path, validate: bool = True) -> Assembly:
-    """Read and validate an assembly JSON file exactly. Raises ``AssemblyError`` (one line)."""
+def read_assembly_json(path: str | Path) -> Assembly:
+    """Read an assembly JSON file exactly (structural checks only; ``rap.io.load_assembly``
+    validates the geometry too). Raises ``AssemblyError`` (one line)."""
     path = Path(path)
     source = str(path)
     try:
@@ -230,11 +240,11 @@ def load_assembly(path: str | Path, validate: bool = True) -> Assembly:
         data = json.loads(text, parse_float=Decimal, parse_int=int, parse_constant=_reject_constant)
     except (json.JSONDecodeError, ValueError, InvalidOperation) as exc:
         raise AssemblyError(source, None, f"not valid JSON: {exc}") from None
-    return parse_assembly(data, source, default_name=path.stem, validate=validate)
+    return assembly_from_json(data, source, default_name=path.stem)
 
 
 def _num_json(v: Fraction) -> int | float:
-    """A JSON number that ``load_assembly`` (decimal parsing) reads back as exactly ``v``."""
+    """A JSON number that ``read_assembly_json`` (decimal parsing) reads back as exactly ``v``."""
     if v.denominator == 1:
         return int(v.numerator)
     den, twos, fives = v.denominator, 0, 0
@@ -254,8 +264,10 @@ def _num_json(v: Fraction) -> int | float:
 
 def assembly_to_json(assembly: Assembly) -> dict:
     """The JSON document of an assembly (exact where coordinates have finite decimals)."""
+    family = {"family": assembly.family} if assembly.family != DEFAULT_FAMILY else {}
     return {
         "name": assembly.name,
+        **family,
         "parts": [
             {"id": p.id, "polygon": [[_num_json(x), _num_json(y)] for x, y in p.outer],
              **({"holes": [[[_num_json(x), _num_json(y)] for x, y in h] for h in p.holes]}

@@ -1,4 +1,4 @@
-"""A client of the planning service (``rap-farm serve``, ``rap.farm.serve``): standard library only.
+"""A client of the planning service (``rap-farm serve``, ``rap.farm.serve``) on urllib (no ray).
 
     doc, details = post_plan("http://127.0.0.1:8000", plan_body(path, "rap", seed=None), token=None)
     result = PlanResult.from_json(doc, **details)        # rap.plan.result
@@ -24,10 +24,9 @@ from pathlib import Path
 from typing import Any
 
 from rap.errors import InputError, RapError
+from rap.farm.api import DETAILS_HEADER
 
-__all__ = ["plan_body", "post_plan", "exact_json", "ServiceError", "DETAILS_HEADER"]
-
-DETAILS_HEADER = "X-Plan-Details"
+__all__ = ["plan_body", "post_plan", "exact_json", "ServiceError"]
 
 
 class ServiceError(RapError):

@@ -1,43 +1,64 @@
-"""Every assembly operation of an assembly, deduplicated, with content keys and seeded sampling.
+"""Which operations of an assembly a labelling run takes: lazy streams, content keys and seeds.
 
-``enumerate_operations(assembly)`` walks every reachable subassembly of the AND/OR graph
-(``rap.geometry.andor``) and lists all of its distinct partitions (``mode="all"``: every closed
-moving set of every cell of the NDBG; ``mode="online"``: RAP's one-per-cell choice). Operations are
-deduplicated by their content key and returned in a canonical order (sorted by key), so the list
-does not depend on dictionary or traversal order.
-
-``sample_operations(ops, k, root_seed, geometry_hash)`` keeps the ``k`` operations with the
-smallest seeded hash: a seeded subset that is stable (the same for the same seed) and nested (the
-sample for ``k`` is a prefix of the sample for ``k + 1``), so growing ``--max-ops-per-assembly`` on
-an existing dataset only adds rows.
+* ``iter_operations(assembly, mode, directions_per_range, root_seed)``: every operation, lazily:
+  the AND/OR graph is walked subassembly by subassembly (``rap.geometry.andor.iter_partitions``)
+  and each partition gives its middle direction plus ``directions_per_range - 1`` seeded directions
+  strictly inside its merged direction range (``rap.geometry.sampling.directions_in_range``), each
+  its own operation with its own content key. ``enumerate_operations`` is the same as a sorted list.
+* ``count_operations(..., budget)``: the size of that space, or None past ``budget`` (integer work
+  only, no operations built): what makes an uncapped label of a huge space refuse at once.
+* ``iter_sampled_operations(assembly, mode, directions_per_range, root_seed)``: distinct operations
+  drawn from seeded random disassembly trees (``rap.geometry.sampling``: the distribution is stated
+  there), without materialising the space. The stream is a deterministic function of the seed, so
+  its first K operations are "the sample of K": growing K only adds operations, and a resumed run
+  selects exactly what an uninterrupted one did. It ends when ``patience`` trees in a row bring
+  nothing new (the space is exhausted or nearly so).
+* ``select_operations(assembly, limit, ...)`` decides: no limit -> every operation (refused with
+  ``TooManyOperations`` past the budget); a limit at least the size of the space -> every
+  operation; otherwise the first ``limit`` operations of the sampled stream.
 
 ``label_key`` / ``label_seed`` define a row's identity in the dataset: the operation's content key
 (geometry + operation + simulator parameters) combined with the run's root seed, and the
-per-operation simulator seed derived from them (``rap.seeds.derive_seed``).
+per-operation simulator seed derived from them (``rap.seeds.derive_seed``). A direction's seed is
+derived from the root seed and the partition's content key, so it is the same in every process.
 
-No ray here.
+Memory: the sampled stream keeps the keys it has yielded (O(K)); the exhaustive one the set of
+subassemblies seen. No ray here.
 """
 
 from __future__ import annotations
 
 import hashlib
-from typing import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Callable, Iterable, Iterator
 
 from rap.assembly import Assembly
-from rap.operation import Operation
-from rap.seeds import derive_seed
+from rap.errors import InputError
+from rap.operation import Operation, subset_key
+from rap.seeds import derive_rng, derive_seed
 
 __all__ = [
     "MODES",
+    "LABEL_BUDGET",
+    "TooManyOperations",
+    "Selection",
+    "select_operations",
+    "iter_operations",
+    "iter_sampled_operations",
     "enumerate_operations",
-    "reachable_operations",
-    "sample_operations",
+    "count_operations",
+    "partition_operations",
     "label_key",
     "label_seed",
-    "operation_count",
 ]
 
 MODES = ("all", "online")
+LABEL_BUDGET = 100_000  # operations an uncapped label may take from one assembly
+_PATIENCE = 64  # random trees in a row with nothing new before a sampled stream ends
+
+
+class TooManyOperations(InputError):
+    """An assembly's operation space is beyond the budget of an uncapped label."""
 
 
 def label_key(op: Operation, geometry_hash: str, params_fingerprint: str, root_seed: int) -> str:
@@ -51,48 +72,159 @@ def label_seed(op: Operation, geometry_hash: str, params_fingerprint: str, root_
     return derive_seed(root_seed, op.key(geometry_hash, params_fingerprint))
 
 
-def reachable_operations(assembly: Assembly, mode: str = "all") -> Iterable[Operation]:
-    """Operations of every reachable composite subassembly of the AND/OR graph, in graph order.
-
-    Raises ``rap.geometry.partitions.TooManyPartitions`` (an ``InputError``) past the geometry
-    layer's enumeration budget.
-    """
+def _check_mode(mode: str) -> None:
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, not {mode!r}")
-    from rap.geometry.andor import and_or_graph
+
+
+def partition_operations(partition, geometry_hash: str, directions_per_range: int,
+                         root_seed: int) -> list[Operation]:
+    """The operations of one partition: its middle direction and ``directions_per_range - 1``
+    seeded directions strictly inside its range (the seed: root seed + the partition's content)."""
+    from rap.geometry.sampling import directions_in_range
+
+    if directions_per_range <= 1 or partition.span == "vertex":
+        return [partition.operation()]
+    text = "|".join([geometry_hash, subset_key(partition.moving), subset_key(partition.fixed),
+                     f"{partition.range_start}", f"{partition.range_end}", partition.span])
+    rng = derive_rng(root_seed, hashlib.sha256(text.encode()).hexdigest())
+    ops = []
+    for i, ((ux, uy), (dx, dy)) in enumerate(directions_in_range(partition, directions_per_range, rng)):
+        ops.append(Operation(partition.moving, partition.fixed, (-ux, -uy), (-dx, -dy), i))
+    return ops
+
+
+def iter_operations(assembly: Assembly, mode: str = "all", directions_per_range: int = 1,
+                    root_seed: int = 0) -> Iterator[Operation]:
+    """Every operation of every reachable composite subassembly, lazily, in graph order.
+
+    Raises ``rap.geometry.partitions.TooManyPartitions`` past the geometry layer's
+    per-subassembly enumeration budget.
+    """
+    _check_mode(mode)
+    from rap.geometry.andor import iter_partitions
     from rap.geometry.ndbg import build_ndbg
 
-    graph = and_or_graph(build_ndbg(assembly), mode=mode)
-    for subset in sorted(graph.partitions, key=lambda s: (len(s), sorted(s))):
-        for part in graph.partitions[subset]:
-            yield part.operation()
+    gh = assembly.geometry_hash
+    for _, parts in iter_partitions(build_ndbg(assembly), mode=mode):
+        for p in parts:
+            yield from partition_operations(p, gh, directions_per_range, root_seed)
 
 
-def enumerate_operations(assembly: Assembly, mode: str = "all") -> list[Operation]:
+def enumerate_operations(assembly: Assembly, mode: str = "all", directions_per_range: int = 1,
+                         root_seed: int = 0) -> list[Operation]:
     """All distinct operations of ``assembly`` (deduplicated by content key), sorted by key."""
     gh = assembly.geometry_hash
     by_key: dict[str, Operation] = {}
-    for op in reachable_operations(assembly, mode):
+    for op in iter_operations(assembly, mode, directions_per_range, root_seed):
         by_key.setdefault(op.key(gh), op)
     return [by_key[k] for k in sorted(by_key)]
 
 
-def sample_operations(ops: Sequence[Operation], k: int | None, root_seed: int,
-                      geometry_hash: str) -> list[Operation]:
-    """A seeded subset of ``k`` operations (all of them when ``k`` is None or >= len(ops)).
+def count_operations(assembly: Assembly, mode: str = "all", directions_per_range: int = 1,
+                     budget: int | None = None) -> int | None:
+    """The number of operations ``iter_operations`` yields, or None when it exceeds ``budget``.
 
-    Ranks operations by ``derive_seed(root_seed, op.key(geometry_hash))`` and keeps the smallest
-    ``k``; the result is in canonical (key) order whatever the input order. O(n log n).
+    Integer work only (moving sets and cell runs; no directions, no objects); stops as soon as the
+    count passes the budget. Cost: O(budget) partitions at most.
     """
-    if k is not None and k < 0:
-        raise ValueError("k must be >= 0")
-    keyed = [(op.key(geometry_hash), op) for op in ops]
-    if k is not None and k < len(keyed):
-        keyed.sort(key=lambda t: (derive_seed(root_seed, t[0]), t[0]))
-        keyed = keyed[:k]
-    keyed.sort(key=lambda t: t[0])
-    return [op for _, op in keyed]
+    _check_mode(mode)
+    from rap.geometry.andor import count_partitions
+    from rap.geometry.ndbg import build_ndbg
+
+    return count_partitions(build_ndbg(assembly), mode=mode,
+                            directions_per_range=directions_per_range, budget=budget)
 
 
-def operation_count(assembly: Assembly, mode: str = "all") -> int:
-    return len(enumerate_operations(assembly, mode))
+def iter_sampled_operations(assembly: Assembly, mode: str = "all", directions_per_range: int = 1,
+                            root_seed: int = 0, patience: int = _PATIENCE,
+                            ndbg=None) -> Iterator[Operation]:
+    """Distinct operations from seeded random disassembly trees (see the module docstring).
+
+    The trees' randomness comes from ``derive_rng(root_seed, "sample|" + geometry hash)``; each
+    partition's operations (directions) are yielded together, deduplicated by content key.
+    """
+    _check_mode(mode)
+    from rap.geometry.ndbg import build_ndbg
+    from rap.geometry.sampling import random_disassembly
+
+    gh = assembly.geometry_hash
+    ndbg = ndbg if ndbg is not None else build_ndbg(assembly)
+    rng = derive_rng(root_seed, hashlib.sha256(f"sample|{mode}|{gh}".encode()).hexdigest())
+    seen_parts: set[tuple] = set()
+    seen: set[str] = set()
+    idle = 0
+    while idle < patience:
+        fresh = False
+        for p in random_disassembly(ndbg, rng, mode):
+            pk = (p.moving, p.fixed, p.range_start, p.range_end, p.span)
+            if pk in seen_parts:
+                continue
+            seen_parts.add(pk)
+            for op in partition_operations(p, gh, directions_per_range, root_seed):
+                k = op.key(gh)
+                if k not in seen:
+                    seen.add(k)
+                    fresh = True
+                    yield op
+        idle = 0 if fresh else idle + 1
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The operations of one assembly that a label run takes, as a re-iterable lazy stream.
+
+    ``how`` is ``"all"`` (every operation; ``size`` is their number) or ``"sampled"`` (the first
+    ``limit`` of the seeded stream; ``size`` is None when the space was not counted to the end).
+    ``total`` is what the run expects to label (the stream may end early if the space is smaller
+    than it looked).
+    """
+
+    assembly: Assembly
+    how: str
+    total: int
+    size: int | None
+    stream: Callable[[], Iterator[Operation]]
+
+    def __iter__(self) -> Iterator[Operation]:
+        n = 0
+        for op in self.stream():
+            if n >= self.total:
+                return
+            n += 1
+            yield op
+
+    def describe(self) -> str:
+        if self.how == "all":
+            return f"all {self.total}"
+        space = f"of {self.size}" if self.size is not None else "of a larger space"
+        return f"a seeded sample of {self.total} {space}"
+
+
+def select_operations(assembly: Assembly, limit: int | None, root_seed: int, mode: str = "all",
+                      directions_per_range: int = 1, budget: int = LABEL_BUDGET) -> Selection:
+    """What ``rap-farm label`` takes from ``assembly`` (see the module docstring).
+
+    Raises ``TooManyOperations`` when ``limit`` is None and the space exceeds ``budget``. Counts
+    the space with at most ``max(budget, limit)`` partitions of integer work.
+    """
+    _check_mode(mode)
+    if directions_per_range < 1:
+        raise ValueError("directions_per_range must be >= 1")
+    if limit is not None and limit < 1:
+        raise ValueError("limit must be >= 1")
+    size = count_operations(assembly, mode, directions_per_range,
+                            budget=budget if limit is None else min(limit, budget))
+    if limit is None:
+        if size is None:
+            raise TooManyOperations(
+                f"{assembly.source or assembly.name}: more than {budget:,} operations "
+                f"(counting stopped there); label a seeded sample with --max-ops-per-assembly K")
+        return Selection(assembly, "all", size, size,
+                         lambda: iter_operations(assembly, mode, directions_per_range, root_seed))
+    if size is not None and size <= limit:
+        return Selection(assembly, "all", size, size,
+                         lambda: iter_operations(assembly, mode, directions_per_range, root_seed))
+    return Selection(assembly, "sampled", limit, None,
+                     lambda: iter_sampled_operations(assembly, mode, directions_per_range,
+                                                     root_seed))

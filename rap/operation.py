@@ -2,14 +2,15 @@
 
 ``Operation.direction`` is the unit vector along which the *moving* subassembly travels to its
 place (the reverse of the disassembly motion found in the NDBG). ``exact_direction`` keeps the
-rational vector the float unit vector was derived from, when there is one.
+rational vector the float unit vector was derived from, when there is one; ``direction_index``
+tells the middle of a direction range (0) from seeded directions inside it (1, 2, ...).
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 
 __all__ = ["Operation", "unit", "subset_key"]
@@ -34,6 +35,9 @@ class Operation:
     fixed: frozenset[str]
     direction: tuple[float, float]
     exact_direction: tuple[Fraction, Fraction] | None = None
+    # which of its partition's directions this is: 0 the middle of the merged range, 1.. seeded
+    # directions inside it (``rap.enumerate.partition_operations``); not part of the content
+    direction_index: int = field(default=0, compare=False)
 
     def __post_init__(self):
         if not self.moving or not self.fixed or self.moving & self.fixed:

@@ -236,7 +236,7 @@ def check(doc: dict) -> None:
 
 def dumps(doc: dict) -> str:
     """JSON with one part per line group and points inline (diff-friendly, easy to read)."""
-    lines = ["{", f'  "name": {json.dumps(doc["name"])},', '  "parts": [']
+    lines = ["{", f'  "name": {json.dumps(doc["name"])},', '  "family": "reference",', '  "parts": [']
     for k, p in enumerate(doc["parts"]):
         body = f'    {{"id": {json.dumps(p["id"])}, "polygon": {json.dumps(p["polygon"])}'
         if p.get("holes"):

@@ -8,8 +8,8 @@ from fractions import Fraction
 
 import pytest
 
-from rap.assembly import (AssemblyError, assembly_to_json, load_assembly, parse_assembly,
-                          signed_area2)
+from rap.assembly import AssemblyError, assembly_to_json, signed_area2
+from rap.io import load_assembly, parse_assembly
 
 
 def _sq(x, y, s=1):
@@ -64,3 +64,23 @@ def test_validation_runs_on_parse():
                                   {"id": "b", "polygon": _sq(1, 1, 2)}]})
     parse_assembly({"parts": [{"id": "a", "polygon": _sq(0, 0, 2)},
                               {"id": "b", "polygon": _sq(1, 1, 2)}]}, validate=False)
+
+
+def test_family_is_metadata_read_and_written():
+    from rap.assembly import assembly_from_json, assembly_to_json
+
+    doc = {"name": "w", "family": "wall", "parts": [{"id": "a", "polygon": [[0, 0], [1, 0], [1, 1]]}]}
+    a = assembly_from_json(doc)
+    assert a.family == "wall" and assembly_to_json(a)["family"] == "wall"
+    plain = assembly_from_json({k: v for k, v in doc.items() if k != "family"})
+    assert plain.family == "custom" and "family" not in assembly_to_json(plain)
+    assert plain == a and plain.geometry_hash == a.geometry_hash  # not part of the content
+    with pytest.raises(AssemblyError, match="'family'"):
+        assembly_from_json({**doc, "family": "two words"})
+
+
+def test_reference_assemblies_are_of_the_reference_family():
+    from pathlib import Path
+
+    for p in (Path(__file__).resolve().parents[1] / "assemblies").glob("*.json"):
+        assert load_assembly(p).family == "reference"

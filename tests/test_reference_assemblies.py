@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 
 import rap
-from rap.assembly import load_assembly
+from rap.io import load_assembly
 from rap.geometry.andor import and_or_graph
 from rap.geometry.ndbg import build_ndbg
 from rap.geometry.partitions import online_partitions

@@ -72,7 +72,7 @@ def demo_command(
     t_all = time.perf_counter()
 
     import rap.farm.service as service
-    from rap.assembly import load_assembly
+    from rap.io import load_assembly
     from rap.farm.driver import LabelConfig, format_summary, run_label
     from rap.farm.runtime import connect
     from rap.sim.params import SimParams

@@ -32,7 +32,7 @@ def experiment_command(
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors [default: all CPUs]."),
 ):
     """Compare RAP, sim-only, optimal and random planning on every assembly (paper, section 8)."""
-    from rap.assembly import load_assembly
+    from rap.io import load_assembly
     from rap.errors import InputError
     from rap.model.train import dataset_assemblies
     from rap.plan.experiment import EXPERIMENT_METHODS, run_experiment, write_report

@@ -89,7 +89,7 @@ def register(app: typer.Typer) -> None:
                                                    "AND/OR graph."),
     ):
         """Validate an assembly exactly and summarise its NDBG and partitions."""
-        from rap.assembly import load_assembly
+        from rap.io import load_assembly
         from rap.geometry.ndbg import build_ndbg
 
         asm = load_assembly(assembly_file)

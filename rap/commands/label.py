@@ -34,7 +34,13 @@ def label(
     seed: int = typer.Option(DEFAULT_ROOT_SEED, "--seed", help="Root seed of the run."),
     max_ops: Optional[int] = typer.Option(
         None, "--max-ops-per-assembly",
-        help="Label a seeded subset of at most K operations per assembly (0: all)."),
+        help="Label a seeded sample of at most K operations per assembly, drawn lazily from random "
+             "disassembly trees (0: every operation; refused past a budget of "
+             "100,000 per assembly)."),
+    directions: int = typer.Option(
+        1, "--directions-per-range",
+        help="Operations per merged direction range: its middle, plus N - 1 seeded directions "
+             "strictly inside it, each its own operation."),
     mode: str = typer.Option("all", "--mode", help="Partitions: 'all' (exhaustive) or 'online' (RAP's)."),
     flush_rows: int = typer.Option(512, "--flush-rows", help="Commit a shard every N rows..."),
     flush_seconds: float = typer.Option(30.0, "--flush-seconds", help="...or every T seconds."),
@@ -56,14 +62,21 @@ def label(
     cfg = driver.LabelConfig(
         assemblies=tuple(assemblies), out=out, address=address, workers=workers,
         trials=trials if trials is not None else p_trials, seed=seed,
-        max_ops_per_assembly=max_ops_eff, mode=mode, flush_rows=flush_rows,
+        max_ops_per_assembly=max_ops_eff, directions_per_range=directions, mode=mode,
+        flush_rows=flush_rows,
         flush_seconds=flush_seconds, progress=not quiet and sys.stderr.isatty(),
         command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]))
     plan = driver.prepare(cfg)
-    typer.echo(f"{plan.total} operations selected in {len(plan.assemblies)} assemblies; "
-               f"{plan.existing} already in {out}, {plan.todo_count} to label", err=True)
+    typer.echo(f"{plan.total} operations selected in {len(plan.assemblies)} assemblies "
+               f"({plan.existing_rows} rows already in {out}); labelling what is missing", err=True)
     summary = driver.run_label(cfg, plan)
     typer.echo(driver.format_summary(summary))
+    if summary.failed:
+        from rap.farm.pool import FarmError
+
+        names = ", ".join(sorted(summary.failed))
+        raise FarmError(f"labelling failed for {len(summary.failed)} of {len(plan.assemblies)} "
+                        f"assemblies ({names}); the rows committed for every assembly are kept")
 
 
 def register(app: typer.Typer) -> None:

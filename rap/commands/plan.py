@@ -172,7 +172,7 @@ def plan_command(
     """Plan a robust assembly sequence and print it (step, parts, direction, score, source)."""
     from rap.commands._console import console as make_console
 
-    from rap.assembly import load_assembly
+    from rap.io import load_assembly
     from rap.plan.result import PlanStatus
     from rap.seeds import DEFAULT_ROOT_SEED
 

@@ -15,7 +15,7 @@ def show(
 ) -> None:
     """Draw the assembly with part ids and its NDBG circle, arcs shaded by how many partitions
     of the whole assembly they admit."""
-    from rap.assembly import load_assembly
+    from rap.io import load_assembly
     from rap.geometry.ndbg import build_ndbg
     from rap.geometry.partitions import cell_partition_counts
     from rap.render.pictures import assembly_figure

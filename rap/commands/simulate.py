@@ -109,7 +109,7 @@ def register(app: typer.Typer) -> None:
         images: Path = typer.Option(None, "--images", help="Write the start/goal pair as PNG."),
     ):
         """Simulate one assembly operation with actuation noise and print its robustness score."""
-        from rap.assembly import load_assembly
+        from rap.io import load_assembly
         from rap.seeds import DEFAULT_ROOT_SEED, derive_rng
         from rap.sim.params import SimParams
         from rap.sim.simulator import simulate

@@ -81,6 +81,8 @@ class BatchResult:
     rows: list[dict]
     node: str
     pid: int
+    assembly: str = ""  # the task's assembly name
+    error: str | None = None  # set (rows empty) when the pool collects a failed batch
     sim_s: float = 0.0  # inside simulate()
     render_s: float = 0.0  # inside render()
     task_s: float = 0.0  # the whole actor method, fetch of the assembly included
@@ -153,7 +155,9 @@ class SimWorker:
                 "params": task.params_json,
                 "code_version": __version__,
                 "node": self._node,
+                "family": getattr(assembly, "family", "custom"),
+                "direction_index": int(getattr(op, "direction_index", 0)),
                 "seconds": float(getattr(res, "seconds", t1 - t)),
             })
         return BatchResult(task_id=task.task_id, rows=rows, node=self._node, pid=self._pid,
-                           sim_s=sim_s, render_s=render_s, task_s=time.perf_counter() - t0)
+                           assembly=task.assembly_name, sim_s=sim_s, render_s=render_s, task_s=time.perf_counter() - t0)

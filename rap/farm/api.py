@@ -9,7 +9,7 @@ and ``plan_budget_s`` seconds of search; a request that reaches a budget gets th
 must not start: a non-loopback host without a bearer token, a short token, a bad port).
 ``parse_plan_request(body)`` turns a ``POST /plan`` body into ``(assembly, method, root seed)`` or
 raises ``BadRequest(status, one line)``; numbers are parsed as decimals, exactly as
-``rap.assembly.load_assembly`` reads a file, and an invalid assembly gets the CLI's
+``rap.io.load_assembly`` reads a file, and an invalid assembly gets the CLI's
 ``AssemblyError`` text with ``assembly`` as its source. ``rap.farm.serve`` serves them over HTTP.
 """
 
@@ -20,14 +20,17 @@ import json
 from dataclasses import asdict, dataclass
 from decimal import Decimal, InvalidOperation
 
-from rap.assembly import AssemblyError, parse_assembly
+from rap.assembly import AssemblyError
+from rap.io import parse_assembly
 from rap.errors import InputError
 from rap.plan.planners import METHODS
 from rap.seeds import DEFAULT_ROOT_SEED
 
-__all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "is_loopback", "REQUEST_KEYS"]
+__all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "is_loopback", "REQUEST_KEYS",
+           "DETAILS_HEADER"]
 
 REQUEST_KEYS = ("assembly", "method", "seed")
+DETAILS_HEADER = "X-Plan-Details"  # {"eval_seconds", "stats"} of an answered plan (rap.client)
 
 
 @dataclass(frozen=True)

@@ -1,18 +1,24 @@
-"""The labelling driver behind ``rap-farm label``: enumerate, skip what is done, label, stream to disk.
+"""The labelling driver behind ``rap-farm label``: select, skip what is done, label, stream to disk.
 
 ``run_label(LabelConfig(...))``:
 
 1. checks every input before any work (assembly files and geometry, options, the output directory
    and, when it already holds a dataset, that it was written with the same root seed, simulator
-   parameters and assembly geometry) and raises ``InputError`` with one line otherwise; nothing
-   existing is modified when a check fails;
-2. enumerates every reachable subassembly's distinct partitions of every assembly
-   (``rap.enumerate``), optionally a seeded subset per assembly, and drops the operations whose key
-   is already in the dataset (resume);
-3. starts or joins Ray (``rap.farm.runtime.connect``), fans the rest out to a ``SimPool`` with
-   bounded in-flight batches, and commits rows atomically (``rap.dataset.write_shard``) every
-   ``flush_rows`` rows or ``flush_seconds`` seconds; rows are never all held in memory;
-4. de-duplicates by key (a retried batch can never add a row twice) and returns a ``LabelSummary``.
+   parameters and assembly geometry) and decides per assembly which operations it takes
+   (``rap.enumerate.select_operations``: every operation, refused at once past the budget when
+   uncapped, or a seeded sample of ``max_ops_per_assembly`` drawn lazily); raises ``InputError``
+   with one line otherwise; nothing existing is modified when a check fails;
+2. starts or joins Ray (``rap.farm.runtime.connect``) and streams the selections, assembly after
+   assembly, into a ``SimPool`` with bounded in-flight batches, skipping operations whose key is
+   already in the dataset (resume); nothing is enumerated ahead of what is in flight, so the
+   driver's memory is bounded by the work in flight and the keys of one assembly, not by the size
+   of any operation space;
+3. commits rows atomically (``rap.dataset.write_shard``): the first shard within
+   ``first_flush_seconds`` of the first result, then every ``flush_rows`` rows or
+   ``flush_seconds`` seconds;
+4. isolates failures: an assembly whose enumeration or simulation fails is named in
+   ``LabelSummary.failed`` and skipped from then on; what was committed (for it and for every other
+   assembly) stays, and the others are labelled to the end.
 
 An interruption (Ctrl-C, SIGTERM from ``ray job stop``) commits the rows already received and
 re-raises; SIGKILL loses at most the rows of the last ``flush_rows``/``flush_seconds``. A rerun of the
@@ -32,11 +38,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
-from rap.assembly import Assembly, load_assembly
+from rap.assembly import Assembly
+from rap.io import load_assembly
 from rap.dataset import (METADATA_FILE, SCHEMA_VERSION, DatasetMeta, clean_partial_files, existing_keys,
                          open_dataset, read_meta, rows_to_table, write_meta, write_shard)
-from rap.enumerate import MODES, enumerate_operations, label_key, label_seed, sample_operations
-from rap.errors import InputError
+from rap.enumerate import MODES, Selection, label_key, label_seed, select_operations
+from rap.errors import InputError, RapError
 from rap.operation import Operation
 
 from rap.farm.actors import Backend, resolve
@@ -67,9 +74,11 @@ class LabelConfig:
     trials: int = 100
     seed: int = 0
     max_ops_per_assembly: int | None = None
+    directions_per_range: int = 1
     mode: str = "all"
     flush_rows: int = 512
     flush_seconds: float = 30.0
+    first_flush_seconds: float = 2.0
     batch_size: int | None = None
     num_cpus: int | None = None  # embedded Ray only: CPUs to start it with (default: all)
     backend: Backend = Backend()
@@ -80,20 +89,23 @@ class LabelConfig:
 
 @dataclass
 class LabelPlan:
-    """What ``prepare`` found: the work left to do, checked and ready."""
+    """What ``prepare`` found: the checked inputs and, per assembly, the lazy selection."""
 
     config: LabelConfig
     assemblies: list[Assembly]
     params: Any
-    ops: dict[str, list[Operation]]  # assembly name -> selected operations
-    todo: dict[str, list[Operation]]  # assembly name -> operations not in the dataset yet
-    existing: int
-    total: int
+    selections: dict[str, Selection]  # assembly name -> what the run takes from it
+    existing_keys: set[str]  # keys already in the dataset (resume)
     new_dataset: bool
+    started: float = field(default_factory=time.perf_counter)  # perf_counter at prepare()
 
     @property
-    def todo_count(self) -> int:
-        return sum(len(v) for v in self.todo.values())
+    def total(self) -> int:
+        return sum(s.total for s in self.selections.values())
+
+    @property
+    def existing_rows(self) -> int:
+        return len(self.existing_keys)
 
 
 @dataclass
@@ -110,6 +122,9 @@ class LabelSummary:
     per_assembly: dict[str, int] = field(default_factory=dict)
     hist: list[int] = field(default_factory=lambda: [0] * HIST_BINS)
     resubmitted: int = 0
+    failed: dict[str, str] = field(default_factory=dict)  # assembly name -> what went wrong
+    first_shard_s: float | None = None  # from the start of prepare() to the first commit
+    peak_rss_mib: float = 0.0  # the driver process's peak resident memory
     sim_s: float = 0.0
     task_s: float = 0.0
     startup_s: float = 0.0  # starting/joining Ray and the actors
@@ -188,7 +203,9 @@ def _check_geometry(out: Path, assemblies: Sequence[Assembly]) -> None:
 
 
 def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) -> LabelPlan:
-    """Check every input and work out what is left to label. Raises ``InputError``; writes nothing."""
+    """Check every input and decide what each assembly contributes. Raises ``InputError``;
+    writes nothing. Enumerates nothing beyond a bounded count per assembly."""
+    started = time.perf_counter()
     if not cfg.assemblies:
         raise InputError("no assembly given")
     if cfg.trials < 1:
@@ -197,12 +214,14 @@ def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) ->
         raise InputError(f"--workers must be >= 1, not {cfg.workers}")
     if cfg.max_ops_per_assembly is not None and cfg.max_ops_per_assembly < 1:
         raise InputError(f"--max-ops-per-assembly must be >= 1, not {cfg.max_ops_per_assembly}")
+    if cfg.directions_per_range < 1:
+        raise InputError(f"--directions-per-range must be >= 1, not {cfg.directions_per_range}")
     if cfg.mode not in MODES:
         raise InputError(f"--mode must be one of {', '.join(MODES)}, not {cfg.mode!r}")
     if not (0 <= int(cfg.seed) < 2 ** 63):
         raise InputError(f"--seed must be in [0, 2**63), not {cfg.seed}")
-    if cfg.flush_rows < 1 or cfg.flush_seconds <= 0:
-        raise InputError("flush_rows must be >= 1 and flush_seconds > 0")
+    if cfg.flush_rows < 1 or cfg.flush_seconds <= 0 or cfg.first_flush_seconds <= 0:
+        raise InputError("flush_rows must be >= 1 and flush_seconds, first_flush_seconds > 0")
 
     assemblies: list[Assembly] = []
     names: dict[str, str] = {}
@@ -225,22 +244,15 @@ def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) ->
         raise InputError(f"invalid simulator parameters: {exc}") from None
     new = _check_meta(out, cfg.seed, params)
     _check_geometry(out, assemblies)
-    existing = existing_keys(out)
 
-    fp = params.fingerprint()
-    ops: dict[str, list[Operation]] = {}
-    todo: dict[str, list[Operation]] = {}
-    n_existing = 0
+    selections: dict[str, Selection] = {}
     for a in assemblies:
-        status(f"enumerating {a.name}")
-        all_ops = enumerate_operations(a, cfg.mode)
-        chosen = sample_operations(all_ops, cfg.max_ops_per_assembly, cfg.seed, a.geometry_hash)
-        ops[a.name] = chosen
-        left = [op for op in chosen if label_key(op, a.geometry_hash, fp, cfg.seed) not in existing]
-        n_existing += len(chosen) - len(left)
-        todo[a.name] = left
-    return LabelPlan(config=cfg, assemblies=assemblies, params=params, ops=ops, todo=todo,
-                     existing=n_existing, total=sum(len(v) for v in ops.values()), new_dataset=new)
+        status(f"counting {a.name}")
+        # TooManyOperations (an InputError): uncapped and beyond the budget, refused at once
+        selections[a.name] = select_operations(a, cfg.max_ops_per_assembly, cfg.seed, cfg.mode,
+                                               cfg.directions_per_range)
+    return LabelPlan(config=cfg, assemblies=assemblies, params=params, selections=selections,
+                     existing_keys=existing_keys(out), new_dataset=new, started=started)
 
 
 # -- running ------------------------------------------------------------------------------------
@@ -299,21 +311,52 @@ def _progress(enabled: bool, total: int):
                     speed_estimate_period=60.0)
 
 
-def _jobs(plan: LabelPlan) -> Iterator[Job]:
+def _jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], None]) -> Iterator[Job]:
+    """The jobs of every selection, assembly after assembly, lazily; skips what is already in the
+    dataset and every assembly in ``summary.failed``. A failing enumeration fails its assembly only."""
     fp = plan.params.fingerprint()
     seed = plan.config.seed
+    existing = plan.existing_keys
     for a in plan.assemblies:
         gh = a.geometry_hash
-        for op in plan.todo[a.name]:
-            yield Job(a, op, label_key(op, gh, fp, seed), label_seed(op, gh, fp, seed))
+        seen: set[str] = set()  # this assembly's keys (its selection is distinct by construction)
+        try:
+            for op in plan.selections[a.name]:
+                if a.name in summary.failed:
+                    break
+                key = label_key(op, gh, fp, seed)
+                if key in seen:
+                    continue
+                seen.add(key)
+                if key in existing:
+                    summary.existing += 1
+                    skipped(1)
+                    continue
+                yield Job(a, op, key, label_seed(op, gh, fp, seed))
+        except (RapError, ValueError, ArithmeticError, RecursionError, MemoryError) as exc:
+            summary.failed.setdefault(a.name, f"selecting operations failed: {_one_line(exc)}")
+
+
+def _peak_rss_mib() -> float:
+    """Peak resident memory of this process (the driver; Ray's workers are other processes)."""
+    import resource
+
+    kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+    return kib / 1024.0
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[-1] if text else type(exc).__name__
 
 
 def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
               on_batch: Callable[[LabelSummary], None] | None = None) -> LabelSummary:
     """Label everything ``cfg`` asks for that is not in the dataset yet; see the module docstring."""
     plan = plan or prepare(cfg)
+    t_start = plan.started
     out = Path(cfg.out)
-    summary = LabelSummary(out=str(out), total=plan.total, existing=plan.existing)
+    summary = LabelSummary(out=str(out), total=plan.total)
 
     def commit_meta() -> None:
         if plan.new_dataset:
@@ -322,13 +365,14 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
                                         command=cfg.command))
         clean_partial_files(out)
 
-    if plan.todo_count == 0:
+    if plan.total == 0:
         commit_meta()
         return summary
 
-    pending = {j.key for j in _jobs(plan)}
+    pending: set[str] = set()  # keys submitted and not yet written (in flight)
     buffer: list[dict] = []
     last_flush = time.monotonic()
+    first_result: float | None = None
     t0 = time.perf_counter()
 
     def flush() -> None:
@@ -343,7 +387,14 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
                     b = min(HIST_BINS - 1, max(0, int(r["score"] * HIST_BINS)))
                     summary.hist[b] += 1
                 buffer.clear()
+            if summary.first_shard_s is None:
+                summary.first_shard_s = time.perf_counter() - t_start
         last_flush = time.monotonic()
+
+    def tracked(jobs: Iterator[Job]) -> Iterator[Job]:
+        for j in jobs:
+            pending.add(j.key)
+            yield j
 
     with _sigterm_as_interrupt(), connect(cfg.address, num_cpus=cfg.num_cpus) as rt:
         commit_meta()  # only once Ray is up: a failed connection leaves nothing behind
@@ -355,8 +406,11 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
             summary.startup_s = time.perf_counter() - t0
             t0 = time.perf_counter()  # the rate counts labelling time only
             with progress:
-                bar = progress.add_task("label", total=plan.total, completed=plan.existing)
-                for res in pool.stream(_jobs(plan), plan.params, images=True, total=plan.todo_count):
+                bar = progress.add_task("label", total=plan.total)
+                jobs = tracked(_jobs(plan, summary, lambda k: progress.advance(bar, k)))
+                for res in pool.stream(jobs, plan.params, images=True, errors="collect"):
+                    if res.error is not None:
+                        summary.failed.setdefault(res.assembly, res.error)
                     fresh = 0
                     for row in res.rows:
                         if row["key"] in pending:
@@ -366,7 +420,12 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
                         else:
                             summary.duplicates += 1
                     progress.advance(bar, fresh)
-                    if len(buffer) >= cfg.flush_rows or time.monotonic() - last_flush >= cfg.flush_seconds:
+                    now = time.monotonic()
+                    if first_result is None and res.rows:
+                        first_result = now
+                    if (len(buffer) >= cfg.flush_rows or now - last_flush >= cfg.flush_seconds
+                            or (summary.shards == 0 and first_result is not None
+                                and now - first_result >= cfg.first_flush_seconds)):
                         flush()
                     if on_batch is not None:
                         on_batch(summary)
@@ -381,6 +440,7 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
                 summary.resubmitted = pool.stats["resubmitted"]
                 summary.sim_s = pool.stats["sim_s"]
                 summary.task_s = pool.stats["task_s"]
+                summary.peak_rss_mib = _peak_rss_mib()
                 pool.shutdown()
     return summary
 
@@ -401,6 +461,12 @@ def format_summary(s: LabelSummary) -> str:
         lines.append("assemblies   " + ", ".join(f"{k} {v}" for k, v in sorted(s.per_assembly.items())))
     if s.nodes:
         lines.append("nodes        " + ", ".join(f"{k} {v}" for k, v in sorted(s.nodes.items())))
+    if s.first_shard_s is not None:
+        lines.append(f"first shard  committed {s.first_shard_s:.1f} s after the start")
+    if s.peak_rss_mib:
+        lines.append(f"driver       peak RSS {s.peak_rss_mib:.0f} MiB")
+    for name, why in sorted(s.failed.items()):
+        lines.append(f"FAILED       {name}: {why} (its committed rows and every other assembly's are kept)")
     if s.labelled:
         lines.append("score histogram (this run)")
         peak = max(s.hist) or 1

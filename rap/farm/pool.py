@@ -198,13 +198,17 @@ class SimPool:
                 self._load[i] -= 1
 
     def stream(self, jobs: Iterable[Job], params: Any, *, images: bool = True,
-               total: int | None = None) -> Iterator[BatchResult]:
+               total: int | None = None, errors: str = "raise") -> Iterator[BatchResult]:
         """Label ``jobs`` and yield each completed batch (completion order).
 
         ``total`` (the number of jobs, when known) balances the last wave. Consecutive jobs of the
-        same assembly share a task. Raises ``FarmError`` when a batch fails in the simulator or is
-        lost more than ``max_attempts`` times. Closing the generator cancels what is in flight.
+        same assembly share a task. A batch that fails in the simulator or is lost more than
+        ``max_attempts`` times raises ``FarmError`` (``errors="raise"``) or is yielded as a
+        ``BatchResult`` with no rows and ``error`` set, the stream going on (``errors="collect"``).
+        Closing the generator cancels what is in flight.
         """
+        if errors not in ("raise", "collect"):
+            raise ValueError("errors must be 'raise' or 'collect'")
         if not self._actors:
             raise RuntimeError("SimPool has been shut down")
         pjson = params_json(params)
@@ -262,12 +266,20 @@ class SimPool:
                         res: BatchResult = ray.get(ref)
                     except RayTaskError as exc:  # the simulator raised: deterministic, do not retry
                         cause = str(exc.cause if getattr(exc, "cause", None) else exc).splitlines()
-                        raise FarmError(f"simulation of a batch of {task.assembly_name} failed: "
-                                        f"{cause[-1] if cause else type(exc).__name__}") from exc
+                        msg = (f"simulation of a batch of {task.assembly_name} failed: "
+                               f"{cause[-1] if cause else type(exc).__name__}")
+                        if errors == "raise":
+                            raise FarmError(msg) from exc
+                        yield self._failed(task, msg)
+                        continue
                     except _LOST as exc:
                         if attempt >= self.max_attempts:
-                            raise FarmError(f"a batch of {task.assembly_name} was lost "
-                                            f"{attempt} times ({type(exc).__name__})") from exc
+                            msg = (f"a batch of {task.assembly_name} was lost {attempt} times "
+                                   f"({type(exc).__name__})")
+                            if errors == "raise":
+                                raise FarmError(msg) from exc
+                            yield self._failed(task, msg)
+                            continue
                         self._maybe_replace(i, exc)
                         with self._lock:
                             self.stats["resubmitted"] += 1
@@ -286,6 +298,11 @@ class SimPool:
                         pass
                 for _, i, _ in in_flight.values():
                     self._release(i)
+
+    @staticmethod
+    def _failed(task: SimTask, msg: str) -> BatchResult:
+        return BatchResult(task_id=task.task_id, rows=[], node="", pid=0,
+                           assembly=task.assembly_name, error=msg)
 
     def _account(self, res: BatchResult) -> None:
         n = max(1, len(res.rows))

@@ -66,13 +66,12 @@ from ray import serve
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from rap import __version__
-from rap.client import DETAILS_HEADER
 from rap.errors import InputError, RapError
 from rap.plan.planners import METHODS
 from rap.plan.scorers import Budget
 from rap.seeds import DEFAULT_ROOT_SEED
 
-from rap.farm.api import BadRequest, ServeConfig, parse_plan_request
+from rap.farm.api import DETAILS_HEADER, BadRequest, ServeConfig, parse_plan_request
 
 __all__ = ["PlanningApp", "build_app", "run_service", "wait_healthy", "APP_NAME"]
 

@@ -17,9 +17,10 @@ from typing import Iterable
 
 from rap.geometry.ndbg import NDBG
 from rap.geometry.partitions import (DEFAULT_MAX_COUNT, Partition, TooManyPartitions,
-                                     all_partitions, online_partitions)
+                                     all_partitions, online_partitions, partition_specs,
+                                     spec_is_vertex)
 
-__all__ = ["AndOrGraph", "and_or_graph", "MODES"]
+__all__ = ["AndOrGraph", "and_or_graph", "iter_partitions", "count_partitions", "MODES"]
 
 MODES = ("online", "all")
 
@@ -86,3 +87,73 @@ def and_or_graph(ndbg: NDBG, mode: str = "online", root: Iterable[str] | None = 
                     stack.append(child)
     locked.sort(key=lambda x: (len(x), sorted(x)))
     return AndOrGraph(mode, root_set, frozenset(seen), parts, tuple(locked))
+
+
+def iter_partitions(ndbg: NDBG, mode: str = "online", root: Iterable[str] | None = None,
+                    max_count: int = DEFAULT_MAX_COUNT):
+    """``(subassembly, partitions)`` of every reachable composite subassembly, lazily, depth first.
+
+    Holds only the set of subassemblies seen and the stack, never the partitions of more than one
+    subassembly: a consumer that stops early pays only for what it took. Interlocked
+    subassemblies come with an empty tuple.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}")
+    root_set = frozenset(ndbg.ids if root is None else root)
+    seen: set[frozenset[str]] = {root_set}
+    stack = [root_set]
+    while stack:
+        s = stack.pop()
+        if len(s) < 2:
+            continue
+        ps = tuple(online_partitions(ndbg, s) if mode == "online"
+                   else all_partitions(ndbg, s, max_count=max_count))
+        yield s, ps
+        for p in ps:
+            for child in (p.moving, p.fixed):
+                if child not in seen:
+                    seen.add(child)
+                    stack.append(child)
+
+
+def count_partitions(ndbg: NDBG, mode: str = "all", directions_per_range: int = 1,
+                     budget: int | None = None) -> int | None:
+    """Operations of the AND/OR graph (a range partition counts ``directions_per_range``, a
+    vertex partition 1), or None as soon as the count exceeds ``budget``.
+
+    Mode 'all' works on integer masks only (``partition_specs``); the per-subassembly enumeration
+    is capped by the budget too, so the cost is O(budget) partitions however large the space.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}")
+    full = (1 << ndbg.n) - 1
+    seen = {full}
+    stack = [full]
+    total = 0
+    cap = DEFAULT_MAX_COUNT if budget is None else max(1, budget)
+    while stack:
+        m = stack.pop()
+        if m & (m - 1) == 0:
+            continue
+        names = ndbg.names(m)
+        children = []
+        if mode == "online":
+            for p in online_partitions(ndbg, names):
+                total += 1 if p.span == "vertex" else directions_per_range
+                mv = ndbg.mask(p.moving)
+                children += [mv, m & ~mv]
+        else:
+            try:
+                specs = partition_specs(ndbg, names, max_count=cap)
+            except TooManyPartitions:
+                return None
+            for spec in specs:
+                total += 1 if spec_is_vertex(ndbg, spec) else directions_per_range
+                children += [spec[0], m & ~spec[0]]
+        if budget is not None and total > budget:
+            return None
+        for c in children:
+            if c not in seen:
+                seen.add(c)
+                stack.append(c)
+    return total

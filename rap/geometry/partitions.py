@@ -35,7 +35,8 @@ from rap.geometry.ndbg import NDBG
 from rap.operation import Operation
 
 __all__ = ["Partition", "TooManyPartitions", "online_partitions", "all_partitions",
-           "interlocked", "is_interlocked", "cell_partition_counts", "DEFAULT_MAX_COUNT"]
+           "partition_specs", "partition_from_spec", "spec_is_vertex", "interlocked",
+           "is_interlocked", "cell_partition_counts", "DEFAULT_MAX_COUNT"]
 
 DEFAULT_MAX_COUNT = 2_000_000
 
@@ -310,6 +311,77 @@ def cell_partition_counts(ndbg: NDBG, subset: Iterable[str], cap: int = 100_000)
     return counts
 
 
+def _segments(ndbg: NDBG, m: int) -> tuple[list[int], list[int]]:
+    """First and last cell index of each maximal run of cells with one DBG restricted to m."""
+    N = len(ndbg.cells)
+    first = [0] + _changed_cells(ndbg, m)
+    last = [(first[s + 1] - 1) if s + 1 < len(first) else N - 1 for s in range(len(first))]
+    return first, last
+
+
+def partition_specs(ndbg: NDBG, subset: Iterable[str], max_count: int = DEFAULT_MAX_COUNT
+                    ) -> list[tuple[int, int, int, bool]]:
+    """Every feasible partition of S as ``(moving mask, first cell, last cell, whole circle)``.
+
+    The integer core of ``all_partitions`` (no floats, no objects): one tuple per (moving set,
+    maximal direction range), in no particular order. ``partition_from_spec`` turns a tuple into a
+    ``Partition``. Raises ``TooManyPartitions`` past ``max_count`` (moving set, cell run)
+    incidences. Cost: O(|S|) per ideal of every distinct restricted DBG.
+    """
+    m, idx = _members(ndbg, subset)
+    if len(idx) < 2:
+        return []
+    cells = ndbg.cells
+    N = len(cells)
+    seg_first, seg_last = _segments(ndbg, m)
+    S = len(seg_first)
+    memo: dict[tuple, list[int]] = {}
+    where: dict[int, list[int]] = {}
+    count = 0
+    r = [0] * ndbg.n
+    for s, k in enumerate(seg_first):
+        sig = tuple(cells[k].outs[v] & m for v in idx)
+        ideals = memo.get(sig)
+        if ideals is None:
+            for v, o in zip(idx, sig):
+                r[v] = o
+            ideals = _ideals(idx, r, m, max_count)
+            memo[sig] = ideals
+        count += len(ideals)
+        if count > max_count:
+            raise TooManyPartitions(f"more than {max_count} partitions to enumerate")
+        for mv in ideals:
+            where.setdefault(mv, []).append(s)
+    specs: list[tuple[int, int, int, bool]] = []
+    for mv, segs in where.items():
+        if len(segs) == S:
+            specs.append((mv, 0, N - 1, True))
+            continue
+        present = set(segs)
+        for s in segs:
+            if (s - 1) % S in present:
+                continue  # not the start of a run
+            t = s
+            while (t + 1) % S in present:
+                t = (t + 1) % S
+            specs.append((mv, seg_first[s], seg_last[t], False))
+    return specs
+
+
+def partition_from_spec(ndbg: NDBG, subset: Iterable[str], spec: tuple[int, int, int, bool]
+                        ) -> Partition:
+    """The ``Partition`` of a ``partition_specs`` tuple of S."""
+    m, _ = _members(ndbg, subset)
+    mv, kf, kl, whole = spec
+    return _range_partition(ndbg, mv, m, kf, kl, whole)
+
+
+def spec_is_vertex(ndbg: NDBG, spec: tuple[int, int, int, bool]) -> bool:
+    """Does the spec's range hold a single direction (one vertex cell)?"""
+    _, kf, kl, whole = spec
+    return not whole and kf == kl and ndbg.cells[kf].kind == "vertex"
+
+
 def all_partitions(ndbg: NDBG, subset: Iterable[str], limit: int | None = None, rng=None,
                    max_count: int = DEFAULT_MAX_COUNT) -> list[Partition]:
     """Every feasible partition of S, deduplicated as (moving, fixed, maximal direction range).
@@ -324,42 +396,8 @@ def all_partitions(ndbg: NDBG, subset: Iterable[str], limit: int | None = None, 
     m, idx = _members(ndbg, subset)
     if len(idx) < 2:
         return []
-    cells = ndbg.cells
-    N = len(cells)
-    # segments: maximal runs of cells with one restricted DBG
-    seg_first = [0] + _changed_cells(ndbg, m)
-    seg_sig = [tuple(cells[k].outs[v] & m for v in idx) for k in seg_first]
-    S = len(seg_first)
-    memo: dict[tuple, list[int]] = {}
-    where: dict[int, list[int]] = {}
-    count = 0
-    r = [0] * ndbg.n
-    for s, sig in enumerate(seg_sig):
-        ideals = memo.get(sig)
-        if ideals is None:
-            for v, o in zip(idx, sig):
-                r[v] = o
-            ideals = _ideals(idx, r, m, max_count)
-            memo[sig] = ideals
-        count += len(ideals)
-        if count > max_count:
-            raise TooManyPartitions(f"more than {max_count} partitions to enumerate")
-        for mv in ideals:
-            where.setdefault(mv, []).append(s)
-    seg_last = [(seg_first[s + 1] - 1) if s + 1 < S else N - 1 for s in range(S)]
-    result: list[Partition] = []
-    for mv, segs in where.items():
-        if len(segs) == S:
-            result.append(_range_partition(ndbg, mv, m, 0, N - 1, True))
-            continue
-        present = set(segs)
-        for s in segs:
-            if (s - 1) % S in present:
-                continue  # not the start of a run
-            t = s
-            while (t + 1) % S in present:
-                t = (t + 1) % S
-            result.append(_range_partition(ndbg, mv, m, seg_first[s], seg_last[t], False))
+    result = [_range_partition(ndbg, mv, m, kf, kl, whole)
+              for mv, kf, kl, whole in partition_specs(ndbg, subset, max_count)]
     result.sort(key=lambda p: (sorted(p.moving), angle_key(p.range_start)))
     if limit is not None and len(result) > limit:
         pick = sorted(int(i) for i in rng.choice(len(result), size=limit, replace=False))

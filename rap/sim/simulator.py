@@ -15,13 +15,14 @@ when the time runs out, or earlier when it is hopeless (checked every 8 control 
 ``stuck_s``. Hopeless rules are part of the outcome's definition; with the defaults (far_off 1.5
 world sizes, stuck off) they changed no score on the fixtures. Score = successes / trials.
 
-Speed: all trials of one operation share ONE ``pymunk.Space``; each trial has its own static body
-holding a copy of the fixed pieces and its own moving body, laid out on a grid far apart, and
-collision categories (trial index mod 32) so that trials never touch each other. The controller
-runs for all trials at once in numpy through ``pymunk.batch``. Decided trials are removed from the
-space (``params.retire``); this never changes an outcome, because the noise is drawn as one
-``(steps, trials)`` block per chunk of steps over all trials in a fixed order and the trials do
-not interact.
+Speed: all trials of one operation share ONE ``pymunk.Space``; each trial has its own moving body
+and its own copy of the fixed pieces (on the space's static body), laid out on a grid far apart,
+with collision categories (trial index mod 32) so that trials never touch each other. The control
+loop is compiled (``rap.sim.kernel``, numba) and calls Chipmunk's step and pymunk's batched
+getters/setters directly, returning to Python only when a trial is decided. Decided trials are
+removed from the space (``params.retire``); this never changes an outcome, because the noise is
+drawn as one ``(128, trials)`` block per 128 control steps over all trials in a fixed order and the
+trials do not interact.
 
 Determinism: the result depends only on (geometry, operation, params, the rng's state).
 """
@@ -34,10 +35,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pymunk
-import pymunk.batch as pb
+from pymunk._chipmunk import lib as _cp
 
 from rap.assembly import Assembly
 from rap.operation import Operation
+from rap.sim import kernel
 from rap.sim.params import DEFAULT_PARAMS, SimParams
 from rap.sim.placement import placement
 from rap.sim.shapes import assembly_pieces
@@ -46,10 +48,6 @@ __all__ = ["SimResult", "simulate", "Scene", "build_scene", "run_trials", "RunIn
 
 _NOISE_CHUNK = 128  # control steps of noise drawn at once: one (chunk, trials) block, fixed order
 _SLOW_CHECK = 8  # control steps between checks for hopeless (far off / stuck) trials
-_GET = (pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
-        | pb.BodyFields.ANGULAR_VELOCITY)
-_GET_IDS = pb.BodyFields.BODY_ID | pb.BodyFields.POSITION
-_SET = pb.BodyFields.FORCE | pb.BodyFields.TORQUE
 
 
 @dataclass(frozen=True)
@@ -84,7 +82,7 @@ class Scene:
     space: pymunk.Space
     movers: list[pymunk.Body]
     mover_ids: list[int]  # pymunk Body.id of each trial's moving body (batch BODY_ID values)
-    statics: list[pymunk.Body]
+    fixed_shapes: list[list[pymunk.Shape]]  # per trial, on space.static_body
     origins: np.ndarray  # [trials, 2] world position of each trial's frame
     start: np.ndarray  # [2] start position of the moving body (trial frame)
     goal: np.ndarray  # [2] goal position of the moving body (trial frame)
@@ -113,7 +111,11 @@ def _area_centroid(pieces) -> tuple[float, float, float]:
 
 def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
                 trials: int | None = None) -> Scene:
-    """Build the shared space: ``trials`` moving bodies at the start, each with its static copy."""
+    """Build the shared space: ``trials`` moving bodies at the start, each with its static copy.
+
+    The fixed pieces of every trial hang on the space's own static body (translated to the trial's
+    origin), so the only bodies the batched getters visit are the moving ones, in trial order.
+    """
     n = params.trials if trials is None else trials
     pl = placement(assembly, operation, params.start_gap)
     scale = params.world_size / pl.extent
@@ -138,40 +140,52 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
     space.collision_slop = params.collision_slop
     spacing = params.trial_spacing * params.world_size
     origins = np.array([[(k % 32) * spacing, (k // 32) * spacing] for k in range(n)], dtype=float)
-    movers, statics, shapes_fixed = [], [], []
+    movers, fixed_shapes = [], []
+    ground = space.static_body
+    # shape properties go straight to Chipmunk (pymunk's property setters call the same functions
+    # through a Python layer that costs more than the shape itself; 100 trials x pieces add up)
+    set_friction, set_elasticity = _cp.cpShapeSetFriction, _cp.cpShapeSetElasticity
+    set_filter, set_density = _cp.cpShapeSetFilter, _cp.cpShapeSetDensity
     for k in range(n):
         filt = pymunk.ShapeFilter(categories=1 << (k % 32), mask=1 << (k % 32))
         body = pymunk.Body()
         shapes = []
         for pc in moving_local:
             sh = pymunk.Poly(body, pc, radius=params.poly_radius)
-            sh.density = params.density
-            sh.friction = params.friction
-            sh.elasticity = params.elasticity
-            sh.filter = filt
+            c = sh._shape
+            set_density(c, params.density)
+            set_friction(c, params.friction)
+            set_elasticity(c, params.elasticity)
+            set_filter(c, filt)
             shapes.append(sh)
         body.position = tuple(origins[k] + start)
         body.angle = 0.0
         space.add(body, *shapes)
         movers.append(body)
-        st = pymunk.Body(body_type=pymunk.Body.STATIC)
-        st.position = tuple(origins[k])
+        ox, oy = float(origins[k, 0]), float(origins[k, 1])
         sshapes = []
         for pc in fixed:
-            sh = pymunk.Poly(st, pc, radius=params.poly_radius)
-            sh.friction = params.friction
-            sh.elasticity = params.elasticity
-            sh.filter = filt
+            sh = pymunk.Poly(ground, [(x + ox, y + oy) for x, y in pc], radius=params.poly_radius)
+            c = sh._shape
+            set_friction(c, params.friction)
+            set_elasticity(c, params.elasticity)
+            set_filter(c, filt)
             sshapes.append(sh)
-        statics.append(st)
-        shapes_fixed.append(sshapes)
-    for st, ss in zip(statics, shapes_fixed):  # statics after all movers: rows 0..n-1 = trials
-        space.add(st, *ss)
+        fixed_shapes.append(sshapes)
+    for ss in fixed_shapes:
+        space.add(*ss)
     m0 = movers[0]
-    return Scene(space=space, movers=movers, mover_ids=[b.id for b in movers], statics=statics, origins=origins, start=start,
-                 goal=goal, direction=d, length=length, mass=m0.mass, moment=m0.moment,
-                 scale=scale, center=(cx, cy), pivot_world=goal,
-                 moving_extent=pl.moving_extent * scale, start_offset=pl.start_offset)
+    return Scene(space=space, movers=movers, mover_ids=[b.id for b in movers],
+                 fixed_shapes=fixed_shapes, origins=origins, start=start, goal=goal, direction=d,
+                 length=length, mass=m0.mass, moment=m0.moment, scale=scale, center=(cx, cy),
+                 pivot_world=goal, moving_extent=pl.moving_extent * scale,
+                 start_offset=pl.start_offset)
+
+
+def remove_trial(scene: Scene, t: int) -> None:
+    """Take trial ``t`` (its moving body and its fixed pieces) out of the space."""
+    mv = scene.movers[t]
+    scene.space.remove(mv, *mv.shapes, *scene.fixed_shapes[t])
 
 
 @dataclass
@@ -183,179 +197,119 @@ class RunInfo:
     steps_run: int  # physics steps taken
     schedule: list  # (physics step, trial indices removed before it)
     recording: tuple | None  # (poses [record, frames, 3], decided frame [record]) or None
-    physics_s: float = 0.0  # time inside pymunk (set forces + step), when run with clock=True
+
+
+def _constants(scene: Scene, p: SimParams, record_every: int) -> np.ndarray:
+    k_sub = p.control_substeps
+    values = {
+        "dx": float(scene.direction[0]), "dy": float(scene.direction[1]), "length": scene.length,
+        "mass": scene.mass, "moment": scene.moment,
+        "tol2": (p.pos_tol * scene.moving_extent) ** 2, "far2": (p.far_off * p.world_size) ** 2,
+        "stuck_ctrl": int(round(p.stuck_s / (p.dt_s * k_sub))) if p.stuck_s > 0 else 0,
+        "progress": p.stuck_progress * p.world_size,
+        "carrot_step": p.carrot_speed * p.dt_s * k_sub, "lead": p.carrot_lead, "eta": p.eta,
+        "kp": p.kp, "kd": p.kd, "amax2": p.max_accel ** 2, "alpha_max": p.max_angular_accel,
+        "ang_tol": p.angle_tol_rad, "kp_angle": p.kp_angle, "kd_angle": p.kd_angle,
+        "dt": p.dt_s, "k_sub": k_sub, "slow_check": _SLOW_CHECK, "noise_chunk": _NOISE_CHUNK,
+        "record_every": max(1, record_every),
+        "start_x": float(scene.start[0]), "start_y": float(scene.start[1]),
+    }
+    return np.array([float(values[k]) for k in kernel.CONSTANTS])
 
 
 def run_trials(scene: Scene, params: SimParams, rng: np.random.Generator,
-               record: int = 0, record_every: int = 1, clock: bool = False) -> RunInfo:
+               record: int = 0, record_every: int = 1, log: np.ndarray | None = None) -> RunInfo:
     """Run the controller on every trial of ``scene`` (consumed: bodies are removed from it).
 
+    The compiled loop (``rap.sim.kernel.control_steps``) runs until a trial is decided; decided
+    trials are then taken out of the space here (``params.retire``) and the loop resumes. The noise
+    of control step c is ``chunk[c % 128, trial]`` of the block drawn at ``c - c % 128``: one
+    ``(128, trials)`` block per 128 steps over all trials in a fixed order, whatever was retired.
     The recording holds, for trials ``0..record-1``, the pose (position of the moving body in the
-    trial's frame, angle) every ``record_every`` control steps. ``clock`` measures the time spent
-    inside pymunk (the floor of the same run) into ``RunInfo.physics_s``.
+    trial's frame, angle) every ``record_every`` control steps. ``log`` (float64 [control steps,
+    trials + 1, 3], zeros) receives the commands applied at each step, for benchmarks' replays.
     """
     space, n = scene.space, len(scene.movers)
     p = params
     k_sub = p.control_substeps
-    dt = p.dt_s
     n_ctrl = p.steps // k_sub
-    dx, dy = float(scene.direction[0]), float(scene.direction[1])
-    nx, ny = -dy, dx
-    L = scene.length
-    m, inertia = scene.mass, scene.moment
-    tol2 = (p.pos_tol * scene.moving_extent) ** 2
-    far2 = (p.far_off * p.world_size) ** 2
-    stuck_ctrl = int(round(p.stuck_s / (dt * k_sub))) if p.stuck_s > 0 else 0
-    progress = p.stuck_progress * p.world_size
-    carrot_step = p.carrot_speed * dt * k_sub
-    lead = p.carrot_lead
-    eta = p.eta
-    kp, kd, amax2 = p.kp, p.kd, p.max_accel ** 2
-    alpha_max = p.max_angular_accel
-    ang_tol = p.angle_tol_rad
-
-    # One matmul maps the body state [x, y, angle, vx, vy, omega] to the path frame and to the
-    # linear part of the controller: Y = state @ M - C (C: per-row offsets of each trial's path).
-    # columns: s (along path from its start), w (left of the path), angle,
-    #          -kp s - kd v.d,  -kp w - kd v.n,  -kp_angle angle - kd_angle omega
-    M = np.zeros((6, 6))
-    M[0:2, 0] = (dx, dy)
-    M[0:2, 1] = (nx, ny)
-    M[2, 2] = 1.0
-    M[0:2, 3], M[3:5, 3] = (-kp * dx, -kp * dy), (-kd * dx, -kd * dy)
-    M[0:2, 4], M[3:5, 4] = (-kp * nx, -kp * ny), (-kd * nx, -kd * ny)
-    M[2, 5], M[5, 5] = -p.kp_angle, -p.kd_angle
-    to_world = m * np.array([[dx, dy], [nx, ny]])  # path-frame acceleration -> world force
-    flip = np.array([-1.0, 1.0])
-
-    outcome = np.zeros(n, dtype=np.int8)  # 0 undecided, 1 success, -1 failure
-    # per-row state (row = position of the body in Chipmunk's body order = trial order at first)
-    rows = np.arange(n)
-    C = (scene.origins + scene.start) @ M[0:2]
+    api = kernel.ChipmunkApi(space, n + 1)  # the movers, then the static body (its row stays 0)
+    if api.body_ids()[:n].tolist() != scene.mover_ids:
+        raise RuntimeError("pymunk does not iterate the moving bodies first, in trial order")
+    id_order = np.argsort(np.array(scene.mover_ids, dtype=np.uintp), kind="stable")
+    sorted_ids = np.array(scene.mover_ids, dtype=np.uintp)[id_order]
+    id_to_trial = id_order.astype(np.int64)
+    row_of_trial = np.zeros(n, dtype=np.int64)
+    K = _constants(scene, p, record_every)
+    rows = np.arange(n, dtype=np.int64)
+    ox = scene.origins[:, 0] + scene.start[0]
+    oy = scene.origins[:, 1] + scene.start[1]
     carrot = np.zeros(n)
-    live = np.ones(n, dtype=bool)
     best = np.full(n, np.inf)
     last_improve = np.zeros(n, dtype=np.int64)
-    acc = np.zeros((n, 2))
-
-    setbuf = np.zeros((len(space.bodies), 3))
-    out = pb.Buffer()
-    out.set_float_buf(setbuf)  # not copied: setbuf must stay alive and in place
-    getbuf = pb.Buffer()
-    chunk = noise = None
-    body_steps = 0
-    schedule = []
-    rec = rec_decided = None
+    live = np.ones(n, dtype=np.uint8)
+    decided = np.zeros(n, dtype=np.uint8)
+    outcome = np.zeros(n, dtype=np.int8)  # 0 undecided, 1 success, -1 failure
+    chunk = np.zeros((1, n))
     if record:
-        frames = n_ctrl // record_every + 1
+        frames = n_ctrl // max(1, record_every) + 1
         rec = np.full((record, frames, 3), np.nan)
         rec_decided = np.full(record, frames - 1, dtype=np.int64)
+    else:
+        rec = np.zeros((0, 1, 3))
+        rec_decided = None
+    log_arr = np.zeros((0, n + 1, 3)) if log is None else log
+    body_steps = 0
+    schedule = []
     n_removed = 0
-    na = n
     c = 0
-    t_phys = 0.0
-    for c in range(n_ctrl):
-        if eta > 0 and c % _NOISE_CHUNK == 0:
-            # one block over ALL trials in a fixed order: independent of retirement
-            chunk = rng.uniform(-eta, eta, size=(_NOISE_CHUNK, n))
-            noise = chunk[:, rows]
-        getbuf.clear()
-        pb.get_space_bodies(space, _GET, getbuf)
-        st = np.frombuffer(getbuf.float_buf(), dtype=np.float64).reshape(-1, 6)[:na]
-        Y = st @ M
-        Y -= C
-        s, w, ang = Y[:, 0], Y[:, 1], Y[:, 2]
-        aang = np.abs(ang)
-        if aang.max() > math.pi:  # wrap the orientation error to (-pi, pi]
-            wrapped = np.remainder(ang + math.pi, 2 * math.pi) - math.pi
-            Y[:, 5] += p.kp_angle * (ang - wrapped)
-            ang = wrapped
-            aang = np.abs(ang)
-        if rec is not None and c % record_every == 0:
-            sel = rows < record
-            f = c // record_every
-            rec[rows[sel], f, 0] = scene.start[0] + s[sel] * dx + w[sel] * nx
-            rec[rows[sel], f, 1] = scene.start[1] + s[sel] * dy + w[sel] * ny
-            rec[rows[sel], f, 2] = st[sel, 2]
-
-        # --- outcomes at this control step --------------------------------------------------
-        e = s - L
-        succ = ((e * e + w * w) < tol2) & (aang < ang_tol) & live
-        decided = succ
-        fail = None
-        if c % _SLOW_CHECK == 0:  # hopeless trials: far off the path (or stuck, when enabled)
-            beyond = np.maximum(np.maximum(-s, e), 0.0)
-            fail = ((w * w + beyond * beyond) > far2) & live & ~succ
-            if stuck_ctrl:
-                dist = np.sqrt(e * e + w * w)
-                improved = dist < best - progress
-                best = np.where(improved, dist, best)
-                last_improve = np.where(improved, c, last_improve)
-                fail |= (c - last_improve > stuck_ctrl) & live & ~succ
-            decided = succ | fail
-
-        # --- controller (every current row, decided ones included) -------------------------
-        carrot = np.minimum(np.minimum(carrot + carrot_step, s + lead), L)
-        acc[:na, 0] = Y[:, 3] + kp * carrot
-        acc[:na, 1] = Y[:, 4]
-        a = acc[:na]
-        a2 = a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1]
-        if a2.max() > amax2:
-            a = a * np.sqrt(np.minimum(amax2 / np.maximum(a2, 1e-300), 1.0))[:, None]
-        if eta > 0:  # + u |F| along the normal of F: (ax, ay) + u (-ay, ax)
-            a = a + noise[c % _NOISE_CHUNK][:, None] * (a[:, ::-1] * flip)
-        ctrl = np.empty((na, 3))
-        np.matmul(a, to_world, out=ctrl[:, 0:2])
-        np.multiply(np.minimum(np.maximum(Y[:, 5], -alpha_max), alpha_max), inertia, out=ctrl[:, 2])
-
-        if decided.any():
-            outcome[rows[succ]] = 1
-            if fail is not None:
-                outcome[rows[fail]] = -1
-            live &= ~decided
-            if rec is not None:
-                for t in rows[decided]:
-                    if t < record:
-                        rec_decided[t] = c // record_every
-            if p.retire:
-                gone = rows[decided]
-                for t in gone:
-                    mv, fx = scene.movers[t], scene.statics[t]
-                    space.remove(mv, *mv.shapes, fx, *fx.shapes)
-                n_removed += len(gone)
-                schedule.append((c * k_sub, [int(t) for t in gone]))
-                if n_removed == n:
-                    break
-                # rows follow Chipmunk's swap-remove order: read the body ids back
-                getbuf.clear()
-                pb.get_space_bodies(space, _GET_IDS, getbuf)
-                ids = np.frombuffer(getbuf.int_buf(), dtype=np.uintp)
-                na = n - n_removed
-                old_pos = {scene.mover_ids[t]: j for j, t in enumerate(rows)}
-                where = np.array([old_pos[i] for i in ids[:na].tolist()], dtype=np.int64)
-                rows, C, carrot, live = rows[where], C[where], carrot[where], live[where]
-                best, last_improve, ctrl = best[where], last_improve[where], ctrl[where]
-                if noise is not None:
-                    noise = chunk[:, rows]
-                setbuf = np.zeros((len(ids), 3))
-                out.set_float_buf(setbuf)
-            elif not live.any():
+    while c < n_ctrl:
+        if p.eta > 0 and c % _NOISE_CHUNK == 0:
+            chunk = rng.uniform(-p.eta, p.eta, size=(_NOISE_CHUNK, n))
+        c_end = min(n_ctrl, (c // _NOISE_CHUNK + 1) * _NOISE_CHUNK)
+        status, c, bs = kernel.control_steps(api.ptrs, K, c, c_end, api.gnum, api.get, api.snum,
+                                             api.sarr, ox, oy, carrot, best, last_improve, live,
+                                             rows, chunk, rec, decided, log_arr)
+        body_steps += bs
+        if status != kernel.DECIDED:
+            continue
+        hit = np.flatnonzero(decided[:len(rows)])
+        succ, fail = rows[hit[decided[hit] == 1]], rows[hit[decided[hit] == 2]]
+        outcome[succ], outcome[fail] = 1, -1
+        live[hit] = 0
+        decided[hit] = 0
+        if rec_decided is not None:
+            for t in rows[hit]:
+                if t < record:
+                    rec_decided[t] = c // max(1, record_every)
+        if p.retire:
+            gone = rows[hit]
+            for t in gone:
+                remove_trial(scene, int(t))
+            n_removed += len(gone)
+            schedule.append((c * k_sub, [int(t) for t in gone]))
+            if n_removed == n:
                 break
-
-        setbuf[:na] = ctrl
-        if clock:
-            t_phys -= time.perf_counter()
-        for _ in range(k_sub):
-            pb.set_space_bodies(space, _SET, out)
-            space.step(dt)
-        if clock:
-            t_phys += time.perf_counter()
-        body_steps += na * k_sub
-
+            # rows follow Chipmunk's swap-remove order: read the body ids back
+            trial = id_to_trial[np.searchsorted(sorted_ids, api.body_ids()[:n - n_removed])]
+            row_of_trial[rows] = np.arange(len(rows))
+            where = row_of_trial[trial]
+            rows, ox, oy, carrot = rows[where], ox[where], oy[where], carrot[where]
+            best, last_improve, live = best[where], last_improve[where], live[where]
+            api.sarr[:len(where)] = api.sarr[where]
+            api.sarr[len(where):] = 0.0
+            decided = np.zeros(len(where), dtype=np.uint8)
+        elif not live.any():
+            break
+        if log is not None:
+            log[c] = api.sarr
+        kernel.apply_and_step(api.ptrs, api.snum, k_sub, p.dt_s)
+        body_steps += len(rows) * k_sub
+        c += 1
     outcome[outcome == 0] = -1
-    recording = (rec, rec_decided) if rec is not None else None
-    return RunInfo(outcome=outcome, body_steps=body_steps, steps_run=(c + 1) * k_sub,
-                   schedule=schedule, recording=recording, physics_s=t_phys)
+    recording = (rec, rec_decided) if record else None
+    return RunInfo(outcome=outcome, body_steps=body_steps, steps_run=c * k_sub,
+                   schedule=schedule, recording=recording)
 
 
 def simulate(assembly: Assembly, operation: Operation, params: SimParams | None = None,

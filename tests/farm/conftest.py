@@ -62,23 +62,19 @@ def ray_local():
 
 
 @pytest.fixture
-def standin_enum(monkeypatch):
-    """Replace the enumeration with the stand-in unless the geometry layer exists."""
+def standin_enum():
+    """The real operation selection (the geometry layer); the stand-in module for the rest."""
     from tests.farm import standin
 
-    import rap.farm.driver as driver
-
-    if not HAVE_GEOMETRY:
-        monkeypatch.setattr(driver, "enumerate_operations", standin.operations)
     return standin
 
 
 @pytest.fixture
 def fake_enum(monkeypatch):
-    """Always the stand-in enumeration (small, known operation lists)."""
+    """Always the stand-in selection (small, known operation lists)."""
     from tests.farm import standin
 
     import rap.farm.driver as driver
 
-    monkeypatch.setattr(driver, "enumerate_operations", standin.operations)
+    monkeypatch.setattr(driver, "select_operations", standin.select_operations)
     return standin

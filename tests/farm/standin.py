@@ -1,8 +1,9 @@
 """Test-only stand-ins with the contracts of the real layers (never imported by shipped code).
 
 * ``operations(assembly)``: a small deterministic list of operations (each part moved into the rest
-  along four directions) standing in for ``rap.enumerate.enumerate_operations`` until the geometry
-  layer exists; the farm does not care whether they are geometrically feasible.
+  along four directions); the farm does not care whether they are geometrically feasible.
+  ``select_operations`` stands in for ``rap.enumerate.select_operations`` with them (a seeded
+  subset of ``limit``), so farm tests know exactly which operations a run takes.
 * ``render(assembly, op, size=64)``: a deterministic uint8 [2, size, size] image of the operation.
 * ``simulate(assembly, op, params, rng)``: a fast deterministic fake of ``rap.sim.simulator.simulate``
   that sleeps ``params.time_limit_s`` milliseconds per operation (8 ms by default; ``slow_params``
@@ -42,6 +43,17 @@ def operations(assembly, mode: str = "all") -> list[Operation]:
     return sorted(out, key=lambda op: op.key(gh))
 
 
+def select_operations(assembly, limit, root_seed, mode="all", directions_per_range=1, budget=None):
+    from rap.enumerate import Selection
+    from rap.seeds import derive_seed
+
+    ops = operations(assembly, mode)
+    gh = assembly.geometry_hash
+    if limit is not None and limit < len(ops):
+        ops = sorted(ops, key=lambda op: (derive_seed(root_seed, op.key(gh)), op.key(gh)))[:limit]
+    return Selection(assembly, "all", len(ops), len(ops), lambda: iter(ops))
+
+
 def render(assembly, op, size: int = 64, params=None):
     h = hashlib.sha256(op.key(assembly.geometry_hash).encode()).digest()
     rng = np.random.default_rng(int.from_bytes(h[:8], "little"))
@@ -61,3 +73,10 @@ def slow_params(trials: int = 100):
     from rap.sim.params import SimParams
 
     return SimParams(trials=trials, time_limit_s=60.0)
+
+
+def simulate_or_fail(assembly, op, params, rng):
+    """``simulate``, except that every operation of an assembly named ``boom*`` raises."""
+    if assembly.name.startswith("boom"):
+        raise ValueError(f"simulated failure in {assembly.name}")
+    return simulate(assembly, op, params, rng)

@@ -40,17 +40,11 @@ def table(out):
 
 @pytest.fixture(scope="module")
 def reference(ray_local, tmp_path_factory):
-    """An uninterrupted run (stand-in enumeration while the geometry layer is missing)."""
+    """An uninterrupted run (the real selection: a seeded sample of 10 per assembly)."""
     import rap.farm.driver as driver
-    from tests.farm import standin
-    from tests.farm.conftest import HAVE_GEOMETRY
 
-    mp = pytest.MonkeyPatch()
-    if not HAVE_GEOMETRY:
-        mp.setattr(driver, "enumerate_operations", standin.operations)
     out = tmp_path_factory.mktemp("ref") / "ds"
     s = driver.run_label(cfg(out))
-    mp.undo()
     return out, s
 
 
@@ -62,6 +56,8 @@ def test_dataset_rows_schema_and_readers(reference, ray_local):
     assert t.num_rows == 20
     assert open_dataset(out).schema.equals(SCHEMA, check_metadata=False)
     assert set(t.column("assembly").to_pylist()) == {"grid", "triangles"}
+    assert set(t.column("family").to_pylist()) == {"reference"}  # from the assembly files
+    assert set(t.column("direction_index").to_pylist()) == {0}  # one direction per range
     assert (out / METADATA_FILE).exists()
     imgs = decode_images(open_dataset(out).to_table(columns=["image"]).column("image"))
     assert imgs.shape == (20, 2, 64, 64)
@@ -143,7 +139,7 @@ ray.init(address={address!r}, runtime_env={{"env_vars": {{"PYTHONPATH": {root!r}
 import rap.farm.driver as driver
 from tests.farm import standin
 from tests.farm.conftest import FAKE
-driver.enumerate_operations = standin.operations
+driver.select_operations = standin.select_operations
 cfg = driver.LabelConfig(assemblies={assemblies!r}, out={out!r}, trials=3, seed=5, backend=FAKE,
                          progress=False, flush_rows=3, workers=2, batch_size=1,
                          params_factory="tests.farm.standin:slow_params")
@@ -172,7 +168,7 @@ def test_driver_sigkill_leaves_no_partial_files_and_rerun_completes(ray_local, f
             proc.kill()
             proc.wait()
     n_partial = open_dataset(out).count_rows()
-    from rap.assembly import load_assembly
+    from rap.io import load_assembly
 
     total = sum(len(fake_enum.operations(load_assembly(p))) for p in TWO)
     assert 0 < n_partial < total
@@ -202,10 +198,10 @@ def test_cli_label_prints_summary_and_resumes(ray_local, standin_enum, monkeypat
             "--trials", "2", "--quiet"]
     main(argv)
     cap = capsys.readouterr()
-    assert "5 to label" in cap.err
+    assert "5 operations selected in 1 assemblies (0 rows already in" in cap.err
     assert "5 labelled now" in cap.out and "score histogram" in cap.out and "ops/s" in cap.out
     main(argv)
     cap = capsys.readouterr()
-    assert "5 already in" in cap.err and "0 labelled now" in cap.out
+    assert "(5 rows already in" in cap.err and "5 already present, 0 labelled now" in cap.out
     assert open_dataset(out).count_rows() == 5
     assert read_meta(out).params["trials"] == 2

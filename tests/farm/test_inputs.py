@@ -53,6 +53,16 @@ def overlapping(tmp_path) -> str:
     return str(p)
 
 
+def big_grid(tmp_path) -> str:
+    """A 6 x 6 grid of squares: its operation space is far beyond the uncapped budget."""
+    from rap.assembly import assembly_to_json
+    from rap.geometry.generate import grid
+
+    p = tmp_path / "grid6.json"
+    p.write_text(json.dumps(assembly_to_json(grid(6))))
+    return str(p)
+
+
 CASES = {
     "missing assembly": (lambda t, e: ["label", str(t / "nope.json"), "--out", str(t / "o")],
                          "no such file"),
@@ -71,6 +81,11 @@ CASES = {
     "bad preset": (lambda t, e: ["label", GRID, "--out", str(t / "o"), "--preset", "huge"], "--preset"),
     "bad workers": (lambda t, e: ["label", GRID, "--out", str(t / "o"), "--workers", "0"], "--workers"),
     "bad trials": (lambda t, e: ["label", GRID, "--out", str(t / "o"), "--trials", "0"], "--trials"),
+    "bad directions": (lambda t, e: ["label", GRID, "--out", str(t / "o"),
+                                     "--directions-per-range", "0"], "--directions-per-range"),
+    "uncapped beyond the budget": (lambda t, e: ["label", GRID, big_grid(t), "--out", str(t / "o"),
+                                                 "--max-ops-per-assembly", "0"],
+                                   "more than 100,000 operations"),
 }
 
 
@@ -92,6 +107,8 @@ def test_bad_input_one_line_exit_2_nothing_written(case, tmp_path, existing, cap
     assert exc.value.code == 2, err
     assert len(err.splitlines()) == 1 and err.startswith("rap-farm: error:"), err
     assert needle in err, err
+    if case == "uncapped beyond the budget":  # the refusal names the file and the way out
+        assert "grid6.json" in err and "--max-ops-per-assembly" in err
     assert snapshot(tmp_path) == before_all  # nothing created, nothing changed
     assert not (tmp_path / "o").exists()
 
@@ -117,5 +134,6 @@ def test_prepare_same_params_resumes(existing):
     before = snapshot(existing)
     plan = prepare(LabelConfig(assemblies=(GRID,), out=str(existing), seed=1, trials=100,
                                max_ops_per_assembly=3, progress=False))
-    assert not plan.new_dataset and plan.total == 3 and plan.todo_count == 3
+    assert not plan.new_dataset and plan.total == 3 and plan.existing_rows == 0
+    assert plan.selections["grid"].how == "sampled"
     assert snapshot(existing) == before

@@ -8,7 +8,7 @@ import signal
 import numpy as np
 import pytest
 
-from rap.assembly import load_assembly
+from rap.io import load_assembly
 from rap.enumerate import label_key, label_seed
 from rap.sim.params import SimParams
 

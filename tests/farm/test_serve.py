@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rap.assembly import AssemblyError, assembly_to_json, load_assembly
+from rap.assembly import AssemblyError, assembly_to_json
+from rap.io import load_assembly
 from rap.plan.result import PlanResult
 from rap.plan.validate import check_plan
 

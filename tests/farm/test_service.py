@@ -7,7 +7,7 @@ import pytest
 
 pytestmark = pytest.mark.ray
 
-from rap.assembly import load_assembly  # noqa: E402
+from rap.io import load_assembly  # noqa: E402
 from rap.farm.actors import Backend  # noqa: E402
 from rap.plan.result import PlanStatus  # noqa: E402
 from rap.plan.validate import check_plan  # noqa: E402

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from rap.assembly import Assembly, parse_assembly
+from rap.assembly import Assembly
+from rap.io import parse_assembly
 
 
 def square(x, y, s=1):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rap.assembly import load_assembly
+from rap.io import load_assembly
 from rap.geometry.generate import grid, random_tiling
 from rap.geometry.validation import validate_assembly
 

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from rap.assembly import AssemblyError, parse_assembly
+from rap.assembly import AssemblyError
+from rap.io import parse_assembly
 from rap.geometry.validation import (convex_interiors_overlap, point_in_ring, ring_is_simple,
                                      segments_intersect, validate_assembly)
 

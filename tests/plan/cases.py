@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from rap.assembly import load_assembly, parse_assembly
+from rap.io import load_assembly, parse_assembly
 
 ROOT = Path(__file__).resolve().parents[2]
 ASSEMBLIES = ROOT / "assemblies"

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
-from rap.assembly import parse_assembly
+from rap.io import parse_assembly
 from rap.operation import Operation, unit
 
 __all__ = ["CASES", "case", "op", "TIGHT_PEG", "FUNNEL_PEG", "BESIDE", "MULTI", "CORNER",

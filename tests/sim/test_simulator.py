@@ -29,7 +29,7 @@ def test_noise_free_feasible_operations_always_succeed(name):
 
 def _reference_operations():
     try:
-        from rap.assembly import load_assembly
+        from rap.io import load_assembly
         from rap.geometry.ndbg import build_ndbg
         from rap.geometry.partitions import online_partitions
     except ImportError:

@@ -1,0 +1,85 @@
+"""The package's import graph: layers import downward only, no cycles, ray only in rap.farm.
+
+Every ``import`` of a ``rap`` module counts, including those inside functions (a lazy import is
+still a dependency). The graph is read from the source with ``ast``; nothing is imported.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import networkx as nx
+
+RAP = Path(__file__).resolve().parents[1] / "rap"
+
+# lower number = lower layer; a module may import modules of its own layer or below
+LAYERS = {
+    "rap.errors": 0, "rap.config": 0, "rap.seeds": 0,
+    "rap.assembly": 1, "rap.operation": 1,
+    "rap.geometry": 2, "rap.io": 3, "rap.enumerate": 3,
+    "rap.sim": 4, "rap.render": 4, "rap.dataset": 4,
+    "rap.model": 5, "rap.plan": 6, "rap.farm": 7, "rap.commands": 8, "rap.cli": 9,
+    "rap.files": 0, "rap.client": 8,
+}
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(RAP.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def layer(mod: str) -> int | None:
+    best = None
+    for prefix, lv in LAYERS.items():
+        if mod == prefix or mod.startswith(prefix + "."):
+            if best is None or len(prefix) > len(best[0]):
+                best = (prefix, lv)
+    return None if best is None else best[1]
+
+
+def imports(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            out.add(node.module)
+            out |= {f"{node.module}.{a.name}" for a in node.names}
+    return out
+
+
+def graph() -> nx.DiGraph:
+    mods = {module_name(p): p for p in RAP.rglob("*.py")}
+    g = nx.DiGraph()
+    for mod, path in mods.items():
+        g.add_node(mod)
+        for target in imports(path):
+            if target in mods and target != mod:
+                g.add_edge(mod, target)
+            elif target.split(".")[0] == "ray":
+                g.add_edge(mod, "ray")
+    return g
+
+
+def test_no_import_cycles():
+    cycles = list(nx.simple_cycles(graph()))
+    assert not cycles, cycles
+
+
+def test_layers_import_downward_only():
+    bad = []
+    for a, b in graph().edges:
+        la, lb = layer(a), layer(b)
+        if la is not None and lb is not None and lb > la:
+            bad.append(f"{a} -> {b}")
+    assert not bad, bad
+
+
+def test_only_the_farm_imports_ray():
+    users = {a for a, b in graph().edges if b == "ray"}
+    assert users and all(u.startswith("rap.farm") for u in users), users
