@@ -128,6 +128,7 @@ async def _validation_error(request: Request, exc: RequestValidationError):
 #: the replica asks for no CPU and stays on the head node, next to the HTTP proxy (HeadOnly) and the
 #: score cache file; its simulation actors spread over the cluster
 _HEAD = "node:__internal_head__"
+_DRAIN = 8  # bodies up to this many times the limit are read (and dropped) before the 413
 
 
 @serve.deployment(name="planner", num_replicas=1,
@@ -207,13 +208,17 @@ class PlanningApp:
             return denied
         limit = self.config.max_body_bytes
         length = request.headers.get("content-length")
-        if length is not None and (not length.isdigit() or int(length) > limit):
+        if length is not None and (not length.isdigit() or int(length) > _DRAIN * limit):
             return _error(413, f"request body over {limit} bytes")
-        body = bytearray()
-        async for chunk in request.stream():
-            body += chunk
-            if len(body) > limit:
-                return _error(413, f"request body over {limit} bytes")
+        body, size = bytearray(), 0
+        async for chunk in request.stream():  # a body a little too large is read and dropped,
+            size += len(chunk)  # so that the client, still sending, gets the 413 and no reset
+            if size <= limit:
+                body += chunk
+            elif size > _DRAIN * limit:
+                break
+        if size > limit:
+            return _error(413, f"request body over {limit} bytes")
         try:
             assembly, method, seed = parse_plan_request(
                 bytes(body), max_parts=self.config.max_parts,
