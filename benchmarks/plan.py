@@ -5,9 +5,11 @@ process, so interpreter start-up, imports, model loading, the NDBG, the CNN, the
 evaluation of the returned sequence and printing are all included:
 
 * ``cold``: an empty score cache per run (``--cache`` in a new temporary file): every step of the
-  returned sequence is simulated (100 trials each), over the default worker processes;
-* ``cold, 1 process``: the same with ``--workers 1`` (every simulation in the planning process);
-* ``warm``: the default behaviour of repeated calls, the score cache already holding the scores.
+  returned sequence is simulated (100 trials each);
+* ``warm``: the default behaviour of repeated calls, the score cache already holding the scores;
+* ``sim, cold`` and ``sim, cold, 1 process``: the simulator-only method (every candidate of every
+  step simulated, batches large enough for the worker processes), with the default workers and
+  with ``--workers 1``.
 
     python benchmarks/plan.py [--assembly assemblies/hexagon.json] [--repeats 3] [--method rap]
 
@@ -17,6 +19,7 @@ Also prints the machine's CPU count and load average: the figures depend on what
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import statistics
 import subprocess
@@ -50,19 +53,24 @@ def main() -> None:
     print(f"rap-farm plan {Path(a.assembly).name} --method {a.method}: {os.cpu_count()} CPUs, "
           f"load average {os.getloadavg()[0]:.2f} at start")
     with tempfile.TemporaryDirectory() as tmp:
-        configs = [("cold", []), ("cold, 1 process", ["--workers", "1"])]
-        for label, extra in configs:
-            walls = [run(base + extra + ["--cache", str(Path(tmp) / f"c{label[-1]}{i}.json")], env)
-                     for i in range(a.repeats)]
-            report(label, walls)
+        n = itertools.count()
+
+        def cold(extra):
+            return [run(extra + ["--cache", str(Path(tmp) / f"c{next(n)}.json")], env)
+                    for _ in range(a.repeats)]
+
+        report("cold", cold(base))
         warm = str(Path(tmp) / "warm.json")
         run(base + ["--cache", warm], env)
         report("warm", [run(base + ["--cache", warm], env) for _ in range(a.repeats)])
+        sim = [a.assembly, "--method", "sim"]
+        report("sim, cold", cold(sim))
+        report("sim, cold, 1 process", cold(sim + ["--workers", "1"]))
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
 
 
 def report(label: str, walls: list[float]) -> None:
-    print(f"  {label:18s} wall median {statistics.median(walls):5.2f} s "
+    print(f"  {label:22s} wall median {statistics.median(walls):5.2f} s "
           f"(min {min(walls):.2f}, max {max(walls):.2f}, n={len(walls)})")
 
 

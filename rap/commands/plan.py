@@ -3,7 +3,7 @@
 Where the work happens:
 
 * by default, in this process: the CNN runs without torch where it can (``rap.plan.fastcnn``) and
-  a batch of two or more simulations is spread over forked worker processes on this machine
+  a batch of eight or more simulations is spread over forked worker processes on this machine
   (``--workers``, default every CPU; ``LocalSimulator``), so a small plan takes a few seconds;
 * ``--address HOST:PORT|auto`` (or ``RAY_ADDRESS``, as in a Ray Job): on a Ray cluster, through a
   planning actor and a pool of simulation actors (``rap.farm.service``);

@@ -12,8 +12,9 @@ Simulator backends (``SimBackend``: ``simulate_many(problem, ops) -> list[Cached
 ``LocalSimulator`` runs ``rap.sim.simulator.simulate`` on this machine with the per-operation seed
 ``problem.seed(op)`` (the labelling farm's seed, so the scores equal the dataset's labels for the
 same parameters and root seed): in this process, or, with ``processes > 1``, a batch of at least
-``min_batch`` operations spread over that many forked worker processes, started at the first such
-batch (tens of milliseconds, against seconds for a Ray cluster) and kept until ``close()``.
+``min_batch`` (``MIN_PROCESS_BATCH``, 8) operations spread over that many forked worker processes,
+started at the first such batch (well under a second, against 10-30 s for a local Ray) and kept
+until ``close()``.
 CNN backend: ``PredictorCnn`` renders each operation (``rap.render.images.render_pair``) and asks a
 predictor: ``rap.model.predict.Predictor`` (torch), or with ``engine="auto"`` the torch-free
 forward pass of ``rap.plan.fastcnn`` when it runs the checkpoint exactly (no torch import: seconds
@@ -45,6 +46,10 @@ __all__ = ["SimBackend", "CnnBackend", "LocalSimulator", "PredictorCnn", "Scorer
            "Budget", "BudgetSpent", "IMAGE_SIZE", "model_familiarity", "foreground_stats"]
 
 IMAGE_SIZE = 64
+#: the smallest batch that ``LocalSimulator`` spreads over worker processes: each new worker loads
+#: the compiled simulator (~0.3 s) and competes with the planner for the cores, so a handful of
+#: operations (a greedy plan's evaluation: one per step) is simulated faster in the process itself
+MIN_PROCESS_BATCH = 8
 
 
 class SimBackend(Protocol):
@@ -92,7 +97,8 @@ class LocalSimulator:
     this process, or over ``processes`` forked workers for batches of ``min_batch`` or more
     operations (Linux; the real simulator only). Same seeds, same scores either way."""
 
-    def __init__(self, simulate: Callable | None = None, *, processes: int = 1, min_batch: int = 2):
+    def __init__(self, simulate: Callable | None = None, *, processes: int = 1,
+                 min_batch: int = MIN_PROCESS_BATCH):
         self._simulate = simulate
         self.processes = max(1, int(processes))
         self.min_batch = max(1, int(min_batch))

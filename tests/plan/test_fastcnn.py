@@ -100,7 +100,7 @@ def test_worker_processes_give_the_in_process_scores():
     problem = PlanningProblem(asm, SimParams(trials=6), root_seed=11)
     ops = list(problem.candidates(problem.whole))
     assert len(ops) >= 2
-    sim = LocalSimulator(processes=2)
+    sim = LocalSimulator(processes=2, min_batch=2)
     try:
         pooled = sim.simulate_many(problem, ops)
         assert sim._executor is not None or not __import__("sys").platform.startswith("linux")
