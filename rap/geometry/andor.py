@@ -7,7 +7,13 @@ every feasible partition (``all_partitions``), whose number can be exponential: 
 with ``TooManyPartitions`` past ``max_subassemblies`` composite subassemblies or past the
 per-subassembly enumeration budget.
 
-Cost: one partition query per reachable composite subassembly (see ``rap.geometry.partitions``).
+``decomposition(ndbg)`` finds one complete disassembly into single parts over the online
+partitions (depth first, memoised per subassembly, stopping at the first success): the check that
+an assembly is not interlocked anywhere along some sequence, without enumerating the whole graph.
+
+Cost: one partition query per reachable composite subassembly (see ``rap.geometry.partitions``);
+``decomposition`` queries only the subassemblies it visits (about n - 1 when the first partition
+of every subassembly leads to a full decomposition).
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ from rap.geometry.ndbg import NDBG
 from rap.geometry.partitions import (DEFAULT_MAX_COUNT, Partition, TooManyPartitions,
                                      all_partitions, online_partitions)
 
-__all__ = ["AndOrGraph", "and_or_graph", "MODES"]
+__all__ = ["AndOrGraph", "and_or_graph", "decomposition", "MODES"]
 
 MODES = ("online", "all")
 
@@ -86,3 +92,38 @@ def and_or_graph(ndbg: NDBG, mode: str = "online", root: Iterable[str] | None = 
                     stack.append(child)
     locked.sort(key=lambda x: (len(x), sorted(x)))
     return AndOrGraph(mode, root_set, frozenset(seen), parts, tuple(locked))
+
+
+def decomposition(ndbg: NDBG, root: Iterable[str] | None = None) -> dict | None:
+    """One full decomposition of ``root`` (default: the whole assembly) into single parts, or None.
+
+    Returns ``{subassembly: Partition}`` for the composite subassemblies of one assembly tree
+    (each split by ``online_partitions``), found depth first with memoised failures; None when
+    every tree meets an interlocked subassembly. Recursion depth is at most the number of parts.
+    """
+    root_set = frozenset(ndbg.ids if root is None else root)
+    chosen: dict[frozenset[str], Partition | None] = {}
+
+    def solve(s: frozenset[str]) -> bool:
+        if len(s) < 2:
+            return True
+        if s in chosen:
+            return chosen[s] is not None
+        chosen[s] = None
+        for p in online_partitions(ndbg, s):
+            if solve(p.moving) and solve(p.fixed):
+                chosen[s] = p
+                return True
+        return False
+
+    if not solve(root_set):
+        return None
+    tree: dict[frozenset[str], Partition] = {}
+    stack = [root_set]
+    while stack:
+        s = stack.pop()
+        if len(s) >= 2:
+            p = chosen[s]
+            tree[s] = p
+            stack += [p.moving, p.fixed]
+    return tree
