@@ -23,7 +23,6 @@ import math
 
 import numpy as np
 
-from rap.errors import InputError
 from rap.geometry.families.base import Family, Option, make_part
 
 __all__ = ["FAN"]
@@ -57,8 +56,6 @@ def _ccw(a, b) -> bool:
 def _fan(rng: np.random.Generator, o: dict) -> list:
     n, layout, radius = o["triangles"], o["layout"], o["radius"]
     closed = layout == "pie"
-    if closed and n < 3:
-        raise InputError(f"fan: --triangles {n}: a pie needs at least 3")
     for attempt in range(101):
         pts = _outer(rng, n, layout, radius, o["jitter"] if attempt < 100 else 0)
         if all(_ccw(pts[k], pts[(k + 1) % len(pts)]) for k in range(n)):
@@ -84,4 +81,6 @@ FAN = Family(
      Option("radius", "Radius of the outer vertices.", 10, 150, draw_low=30, draw_high=50),
      Option("jitter", "Largest change of an outer vertex's radius.", 0, 20, draw_low=0,
             draw_high=6)),
-    _fan, _count, ("triangles", "layout"))
+    _fan, _count, ("triangles", "layout"),
+    lambda o: (f"--triangles {o['triangles']}: a pie needs at least 3"
+               if o["layout"] == "pie" and o["triangles"] < 3 else None))

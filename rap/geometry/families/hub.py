@@ -43,6 +43,13 @@ def _edge_frame(a, b):
     return g, math.hypot(dx // g, dy // g)  # length in units of e, and |e|
 
 
+def _distance_to_line(a, b, points) -> float:
+    """Smallest distance from the line through a and b to the given points."""
+    length = math.hypot(b[0] - a[0], b[1] - a[1])
+    return min(abs((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])) / length
+               for p in points)
+
+
 def _hub(rng: np.random.Generator, o: dict) -> list:
     unit = _POLYGONS[o["sides"]]
     n, rings = len(unit), o["rings"]
@@ -62,18 +69,22 @@ def _hub(rng: np.random.Generator, o: dict) -> list:
                 edges[r, k] = shared_edge(a, b, None)
                 continue
             g, e_len = _edge_frame(a, b)
-            # room: the ring's thickness along this edge's normal, and the edge's length
-            na, nb = nxt[k], nxt[(k + 1) % n]
-            cross = (b[0] - a[0]) * (na[1] - a[1]) - (b[1] - a[1]) * (na[0] - a[0])
-            thick = abs(cross) / math.hypot(b[0] - a[0], b[1] - a[1])
-            apothem = abs(a[0] * b[1] - a[1] * b[0]) / math.hypot(b[0] - a[0], b[1] - a[1])
+            # room: a third of the thickness of the part the key enters (the hub's apothem or a
+            # ring's thickness along this edge's normal), and a quarter of the edge
             side = 1 if rng.random() < 0.5 else -1  # 1: key on the outer part, into the inner one
-            room = (apothem if (side == 1 and r == 0) else thick) / 3
+            inner = polys[r - 1] if r else [(0, 0)] * n
+            into = (inner[k], inner[(k + 1) % n]) if side == 1 else (nxt[k], nxt[(k + 1) % n])
+            room = _distance_to_line(a, b, into) / 3
             c_len = int(rng.integers(0, o["max_clearance"] + 1))
             c = 0 if c_len == 0 else max(1, int(round(c_len / e_len)))
+            if int(room / e_len) - c < 1 or g // 4 - c < 1:
+                c = 0  # no room for a clearance here
+            if int(room / e_len) < 1 or g // 4 < 1:
+                edges[r, k] = shared_edge(a, b, None)
+                continue
             depth = max(1, min(int(round(rng.uniform(3, 7) / e_len)), int(room / e_len) - c))
             half = max(1, min(int(round(rng.uniform(2, 5) / e_len)), g // 4 - c))
-            profile = [(half, 0), (half, depth)] if rng.random() < 0.6 else [(half + 1, 0), (0, depth)]
+            profile = [(half, 0), (half, depth)] if rng.random() < 0.6 else [(half, 0), (0, depth)]
             edges[r, k] = shared_edge(a, b, profile, g // 2, side=side, clearance=c)
     parts = [make_part("hub", [p for k in range(n) for p in edges[0, k][0]])]
     for r in range(rings):

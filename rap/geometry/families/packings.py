@@ -111,8 +111,6 @@ def _forms_ell(a, b) -> bool:
 def _packing(rng: np.random.Generator, o: dict) -> list:
     n_parts, ells, c = o["parts"], o["ells"], o["clearance"]
     n_rects = n_parts - 1 + ells
-    if ells and n_rects < 2 * ells:
-        raise InputError(f"packing: --ells {ells}: needs at least {ells + 1} parts")
     for _ in range(DRAFTS):
         aspect = rng.uniform(1.0, 1.8)
         area = n_rects * rng.uniform(150, 260)
@@ -191,8 +189,6 @@ def _grow(rng: np.random.Generator, cols: int, rows: int, n: int) -> list[list[t
 
 def _polyomino(rng: np.random.Generator, o: dict) -> list:
     cols, rows, n, u = o["cols"], o["rows"], o["pieces"], o["cell"]
-    if n > cols * rows:
-        raise InputError(f"polyomino: --pieces {n}: more than the {cols * rows} cells")
     for _ in range(DRAFTS):
         pieces = _grow(rng, cols, rows, n)
         rings = [union_ring([(x, y, x + 1, y + 1) for x, y in cells]) for cells in pieces]
@@ -212,7 +208,9 @@ PACKING = Family(
      Option("ells", "Pairs of rectangles merged into L-shapes.", 0, 6, draw_low=0, draw_high=2),
      Option("clearance", "Slack between the contents and one wall of the tray.", 0, 6,
             draw_low=0, draw_high=3)),
-    _packing, lambda o: o["parts"], ("parts",))
+    _packing, lambda o: o["parts"], ("parts",),
+    lambda o: (f"--ells {o['ells']}: needs at least {max(3, o['ells'] + 1)} parts"
+               if o["ells"] and o["parts"] < max(3, o["ells"] + 1) else None))
 
 POLYOMINO = Family(
     "polyomino", "A rectangle tiled by random compact polyominoes (no holes, at most 12 vertices).",
@@ -220,4 +218,6 @@ POLYOMINO = Family(
      Option("rows", "Cells along y.", 2, 16, draw_low=3, draw_high=5),
      Option("pieces", "Polyominoes.", 2, 40, draw_low=4, draw_high=8),
      Option("cell", "Side of a cell.", 4, 24, draw_low=10, draw_high=14)),
-    _polyomino, lambda o: o["pieces"], ("pieces",))
+    _polyomino, lambda o: o["pieces"], ("pieces",),
+    lambda o: (f"--pieces {o['pieces']}: more than the {o['cols'] * o['rows']} cells (give --cols "
+               "and --rows)" if o["pieces"] > o["cols"] * o["rows"] else None))

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from rap.errors import InputError
 from rap.geometry.families.base import Family, Option, make_part
 
 __all__ = ["CONVEX", "WALL"]
@@ -101,11 +100,15 @@ def _wall_count(o: dict) -> int:
     return o["rows"] * o["bricks"] + o["rows"] // 2
 
 
+def _wall_problem(o: dict) -> str | None:
+    if o["gap"] > o["half"] - 2:
+        return (f"--gap {o['gap']}: must be at most --half minus 2 ({o['half'] - 2}), so that half "
+                "bricks keep a width")
+    return None
+
+
 def _wall(rng: np.random.Generator, o: dict) -> list:
     rows, n, half, h, gap = o["rows"], o["bricks"], o["half"], o["height"], o["gap"]
-    if gap > half - 2:
-        raise InputError(f"wall: --gap {gap}: must be at most --half minus 2 ({half - 2}), so that "
-                         "half bricks keep a width")
     length = 2 * half
     right = n * length - gap  # both ends of every course are flush
     parts = []
@@ -132,11 +135,11 @@ CONVEX = Family(
 
 WALL = Family(
     "wall", "A running-bond brick wall (half bricks at the ends of alternate courses).",
-    (Option("rows", "Courses of bricks.", 1, 40, draw_low=2, draw_high=4),
-     Option("bricks", "Whole bricks in an even course (odd ones: bricks - 1 and two halves).", 1, 40,
+    (Option("rows", "Courses of bricks.", 1, 20, draw_low=2, draw_high=4),
+     Option("bricks", "Whole bricks in an even course (odd ones: bricks - 1 and two halves).", 1, 20,
             draw_low=2, draw_high=4),
      Option("half", "Half a brick's length.", 3, 24, draw_low=6, draw_high=10),
      Option("height", "Height of a course.", 2, 30, draw_low=5, draw_high=10),
      Option("gap", "Head-joint gap between neighbouring bricks of a course (0: touching).", 0, 8,
             draw_low=0, draw_high=3)),
-    _wall, _wall_count, ("rows", "bricks"))
+    _wall, _wall_count, ("rows", "bricks"), _wall_problem)
