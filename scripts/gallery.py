@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("-o", "--output", default=str(ROOT / "docs" / "gallery.png"))
-    ap.add_argument("--per-family", type=int, default=4)
+    ap.add_argument("--per-family", type=int, default=5)
     ap.add_argument("--labels", action="store_true", help="write part ids on the parts")
     ap.add_argument("--dpi", type=int, default=60)
     args = ap.parse_args(argv)

@@ -40,6 +40,16 @@ def test_registry():
     assert [row[0] for row in family_table()] == list(FAMILIES)
 
 
+def test_geometry_layer_only():
+    import subprocess
+    import sys
+
+    code = ("import sys; from rap.geometry.families import generate; generate('hub', 0); "
+            "print(sorted(m for m in ('ray', 'torch', 'pymunk', 'matplotlib') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
 @pytest.mark.parametrize("name,seed", CASES)
 def test_valid_integer_not_interlocked(generated, name, seed):
     asm = generated[name, seed]

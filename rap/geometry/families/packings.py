@@ -216,7 +216,7 @@ POLYOMINO = Family(
     "polyomino", "A rectangle tiled by random compact polyominoes (no holes, at most 12 vertices).",
     (Option("cols", "Cells along x.", 2, 16, draw_low=3, draw_high=6),
      Option("rows", "Cells along y.", 2, 16, draw_low=3, draw_high=5),
-     Option("pieces", "Polyominoes.", 2, 40, draw_low=4, draw_high=8),
+     Option("pieces", "Polyominoes.", 2, 40, draw_low=4, draw_high=10),
      Option("cell", "Side of a cell.", 4, 24, draw_low=10, draw_high=14)),
     _polyomino, lambda o: o["pieces"], ("pieces",),
     lambda o: (f"--pieces {o['pieces']}: more than the {o['cols'] * o['rows']} cells (give --cols "

@@ -27,7 +27,7 @@ _COMMON = (
     Option("blocks", "Blocks per layer.", 1, 12, draw_low=2, draw_high=5),
     Option("layers", "Layers of blocks on the plate.", 1, 6, draw_low=1, draw_high=3),
     Option("gap", "Space between neighbouring blocks of a layer (0: they touch).", 0, 8,
-           draw_low=0, draw_high=3),
+           draw_low=0, draw_high=4),
     Option("peg_half", "Half-width of a peg.", 1, 8, draw_low=2, draw_high=4),
     Option("depth", "Depth of a peg (and its slot).", 1, 12, draw_low=3, draw_high=6),
 )

@@ -90,9 +90,9 @@ C_SHAPES = Family(
             draw_low=2, draw_high=5),
      Option("kind", "Column kind (mixed: drawn per column).", choices=(*KINDS, "mixed")),
      Option("max_clearance", "Each column's clearance is drawn in 0..this.", 0, 4,
-            draw_low=0, draw_high=3),
+            draw_low=1, draw_high=3),
      Option("wall", "Wall thickness of the Cs (drawn in wall..wall+1).", 2, 8, draw_low=3,
             draw_high=5),
      Option("gap", "Space between neighbouring columns (0: they touch).", 0, 8, draw_low=0,
-            draw_high=3)),
+            draw_high=4)),
     _shapes, _count, ("columns",))
