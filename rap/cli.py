@@ -20,7 +20,7 @@ from rap.errors import EXIT_INTERRUPTED, RapError
 __all__ = ["app", "main"]
 
 COMMAND_MODULES = ("inspect", "show", "generate", "simulate", "label", "train", "evaluate",
-                   "plan", "experiment", "demo")
+                   "score", "plan", "experiment", "demo")
 
 app = typer.Typer(
     name="rap-farm",
