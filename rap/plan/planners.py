@@ -8,7 +8,8 @@ assembly order (children before parents: the disassembly sequence reversed).
 
 * ``RapPlanner`` (the paper's Algorithm 1 with the CNN scorer): the CNN scores every candidate of
   ``S`` in one batch; among those predicted *high* (P(high) >= 0.5) the most confident is taken;
-  when none is, every candidate is simulated and the best taken (a *fallback*).
+  when none is, the candidates are simulated and the best taken (a *fallback*): all of them (the
+  paper's rule, ``fallback_k=None``) or only the ``fallback_k`` with the highest P(high).
 * ``SimPlanner``: every candidate is simulated; the best is taken.
 * ``OptimalPlanner``: the most robust sequence over the same operation space, maximising the product
   of simulated scores by dynamic programming over subassemblies:
@@ -198,12 +199,17 @@ class SimPlanner(_Greedy):
 
 
 class RapPlanner(_Greedy):
-    """RAP: the CNN's most confident *high* candidate, else the simulator's best (fallback)."""
+    """RAP: the CNN's most confident *high* candidate, else the simulator's best among all
+    candidates (``fallback_k=None``, the paper's rule) or among the ``fallback_k`` candidates with
+    the highest P(high) (ties: candidate order)."""
 
     name = "rap"
 
-    def __init__(self, high_probability: float = HIGH_PROBABILITY):
+    def __init__(self, high_probability: float = HIGH_PROBABILITY, fallback_k: int | None = None):
+        if fallback_k is not None and fallback_k < 1:
+            raise ValueError("fallback_k must be >= 1 (None: every candidate)")
         self.high_probability = float(high_probability)
+        self.fallback_k = fallback_k
 
     def _select(self, problem, scorer, cands, stats):
         flat = [op for c in cands for op in c]
@@ -220,11 +226,15 @@ class RapPlanner(_Greedy):
         stats["fallbacks"] = stats.get("fallbacks", 0) + len(fallback)
         stats["fallback_candidates"] = stats.get("fallback_candidates", 0)
         if fallback:
-            fcands = [cands[k] for k in fallback]
+            picks = []  # per fallback subassembly: indices of the candidates to simulate
+            for k in fallback:
+                order = sorted(range(len(cands[k])), key=lambda j: (-probs[k][j], j))
+                picks.append(order if self.fallback_k is None else sorted(order[:self.fallback_k]))
+            fcands = [tuple(cands[k][j] for j in pick) for k, pick in zip(fallback, picks)]
             flat_f = [op for c in fcands for op in c]
             stats["fallback_candidates"] += len(flat_f)
             scores = _split(scorer.scores(problem, flat_f), fcands)
-            for k, c, sc in zip(fallback, fcands, scores):
+            for k, c, sc, pick in zip(fallback, fcands, scores, picks):
                 i = _argmax_first(sc)
                 out[k] = PlanStep.of(c[i], "sim", score=sc[i])
         return out  # type: ignore[return-value]
@@ -329,10 +339,10 @@ class RandomPlanner(Planner):
         return orders[pick]
 
 
-def make_planner(method: str, *, samples: int = 50) -> Planner:
-    """The planner named ``method`` (one of ``METHODS``)."""
+def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None) -> Planner:
+    """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` for RAP (None: all)."""
     if method == "rap":
-        return RapPlanner()
+        return RapPlanner(fallback_k=fallback_k)
     if method == "sim":
         return SimPlanner()
     if method == "optimal":
