@@ -47,7 +47,8 @@ from rap.plan.scorers import Budget, BudgetSpent, Scorer
 from rap.seeds import derive_rng
 
 __all__ = ["Planner", "RapPlanner", "SimPlanner", "OptimalPlanner", "RandomPlanner", "METHODS",
-           "make_planner", "evaluate_steps", "assembly_order", "HIGH_PROBABILITY"]
+           "make_planner", "evaluate_steps", "assembly_order", "dp_choice", "dead_end",
+           "HIGH_PROBABILITY"]
 
 METHODS = ("rap", "sim", "optimal", "random")
 HIGH_PROBABILITY = 0.5  # the CNN's class decision: P(high) >= 0.5 is "high"
@@ -241,7 +242,8 @@ class RapPlanner(_Greedy):
 
 
 def _reachable(problem: PlanningProblem) -> dict[frozenset, tuple[Operation, ...]]:
-    """Every subassembly reachable from the whole by candidate splits, with its candidates."""
+    """Every subassembly reachable from the whole by candidate splits, with its candidates; an
+    interlocked one (a dead end of the AND/OR graph) has an empty tuple."""
     whole = problem.whole
     seen: dict[frozenset, tuple[Operation, ...]] = {}
     stack = [whole]
@@ -250,12 +252,40 @@ def _reachable(problem: PlanningProblem) -> dict[frozenset, tuple[Operation, ...
         if s in seen or len(s) < 2:
             continue
         c = problem.candidates(s)
-        if not c:
-            raise _Interlocked(s)
         seen[s] = c
         for op in c:
             stack += [op.moving, op.fixed]
     return seen
+
+
+def dp_choice(graph: dict[frozenset, tuple[Operation, ...]],
+              score_of: dict[frozenset, Sequence[float]]) -> tuple[dict, dict]:
+    """``best(S) = max over candidates of r(op) * best(M) * best(F)`` (``best`` of a single part:
+    1; of a dead end: 0) for every subassembly of ``graph``, smallest first; ``arg[S]`` the index
+    of the first maximising candidate. O(operations)."""
+    best: dict[frozenset, float] = {}
+    arg: dict[frozenset, int] = {}
+
+    def b(x):
+        return best.get(x, 0.0) if len(x) >= 2 else 1.0
+
+    for s in sorted(graph, key=len):
+        vals = [r * b(op.moving) * b(op.fixed) for op, r in zip(graph[s], score_of[s])]
+        if not vals:
+            best[s] = 0.0
+            continue
+        i = _argmax_first(vals)
+        best[s], arg[s] = vals[i], i
+    return best, arg
+
+
+def dead_end(graph: dict[frozenset, tuple[Operation, ...]], whole: frozenset) -> frozenset:
+    """The subassembly to blame when no sequence exists: the whole when it has no candidate,
+    else the smallest interlocked subassembly reached."""
+    locked = [s for s, c in graph.items() if not c]
+    if whole in locked or not locked:
+        return whole
+    return min(locked, key=lambda s: (len(s), sorted(s)))
 
 
 class OptimalPlanner(Planner):
@@ -268,28 +298,32 @@ class OptimalPlanner(Planner):
         if len(whole) < 2:
             return []
         graph = _reachable(problem)
+        if not graph[whole]:
+            raise _Interlocked(whole)
         flat = [op for c in graph.values() for op in c]
         scores = iter(scorer.scores(problem, flat))
         score_of = {s: [next(scores) for _ in c] for s, c in graph.items()}
-        best: dict[frozenset, float] = {}
+        best, arg = dp_choice(graph, score_of)
+        if best[whole] <= 0.0:
+            raise _Interlocked(dead_end(graph, whole))
         trees: dict[frozenset, int] = {}
-        arg: dict[frozenset, int] = {}
-        terms = 0
-
-        def b(x):
-            return best[x] if len(x) >= 2 else 1.0
 
         def t(x):
-            return trees[x] if len(x) >= 2 else 1
+            return trees.get(x, 0) if len(x) >= 2 else 1
 
         for s in sorted(graph, key=len):
-            vals = [r * b(op.moving) * b(op.fixed) for op, r in zip(graph[s], score_of[s])]
-            terms += len(vals)
-            i = _argmax_first(vals)
-            best[s], arg[s] = vals[i], i
             trees[s] = sum(t(op.moving) * t(op.fixed) for op in graph[s])
-        choice = {s: PlanStep.of(graph[s][arg[s]], "sim", score=score_of[s][arg[s]]) for s in graph}
+        choice = {}
+        stack = [whole]
+        while stack:
+            s = stack.pop()
+            if len(s) < 2:
+                continue
+            op = graph[s][arg[s]]
+            choice[s] = PlanStep.of(op, "sim", score=score_of[s][arg[s]])
+            stack += [op.moving, op.fixed]
         n_ex = trees[whole]
+        terms = len(flat)
         stats.update(subassemblies=len(graph), operations=len(flat), dp_evaluations=terms,
                      exhaustive_sequences=n_ex,
                      exhaustive_step_evaluations=n_ex * (len(whole) - 1),
