@@ -77,10 +77,15 @@ class Part:
         return (self.outer, *self.holes)
 
     def float_outer(self) -> list[tuple[float, float]]:
-        return [(float(x), float(y)) for x, y in self.outer]
+        return list(self._float_rings[0])
 
     def float_holes(self) -> list[list[tuple[float, float]]]:
-        return [[(float(x), float(y)) for x, y in h] for h in self.holes]
+        return [list(h) for h in self._float_rings[1:]]
+
+    @cached_property
+    def _float_rings(self) -> tuple[tuple[tuple[float, float], ...], ...]:
+        """The rings as floats, converted once (rendering and physics ask again and again)."""
+        return tuple(tuple((float(x), float(y)) for x, y in ring) for ring in self.rings())
 
     def area(self) -> Fraction:
         return (signed_area2(self.outer) + sum(signed_area2(h) for h in self.holes)) / 2

@@ -28,7 +28,7 @@ from rap.errors import EXIT_INPUT, EXIT_INTERRUPTED, RapError
 __all__ = ["app", "main"]
 
 COMMAND_MODULES = ("inspect", "show", "generate", "simulate", "label", "train", "evaluate",
-                   "plan", "serve", "experiment", "demo")
+                   "score", "plan", "serve", "experiment", "demo")
 
 app = typer.Typer(
     name="rap-farm",

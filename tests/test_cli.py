@@ -32,6 +32,7 @@ CASES = [
     (["label"], "Missing"),
     (["label", HEXAGON, "--workers", "0", "--out", "d"], "--workers"),
     (["train"], "Missing"),
+    (["score"], "Missing"),
     (["evaluate"], "Missing"),
     (["plan"], "Missing"),
     (["plan", "--methd", "x", "A.json"], "--methd"),

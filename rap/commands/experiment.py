@@ -19,12 +19,16 @@ __all__ = ["register", "experiment_command"]
 def experiment_command(
     dataset: Path = typer.Argument(..., help="Dataset directory written by `rap-farm label`."),
     out: Path = typer.Option(None, "--out", "-o", help="Report directory [default: reports/<dataset>]."),
-    assemblies: Path = typer.Option(Path("assemblies"), "--assemblies",
-                                    help="Directory with NAME.json for every assembly of the dataset."),
+    assemblies: list[Path] = typer.Option([Path("assemblies")], "--assemblies",
+                                          help="Directory with NAME.json for the dataset's "
+                                               "assemblies (repeatable; first match wins)."),
     models: Path = typer.Option(Path("models"), "--models",
-                                help="Directory of holdout-NAME.pt checkpoints (trained when absent)."),
+                                help="Directory of holdout-NAME.pt / holdout-family-FAMILY.pt "
+                                     "checkpoints (trained when absent)."),
     only: list[str] = typer.Option(None, "--only", help="Only these assemblies (repeatable)."),
-    methods: str = typer.Option("random,rap,sim,optimal", "--methods", help="Comma-separated."),
+    methods: str = typer.Option("random,rap,sim,optimal", "--methods",
+                                help="Comma-separated: random, rap, rap-kK (fallback to the K "
+                                     "most likely candidates), sim, optimal."),
     epochs: int = typer.Option(8, "--epochs", min=1, help="Epochs for the hold-out CNNs."),
     trials: int = typer.Option(None, "--trials", min=1,
                                help="Simulator trials [default: the dataset's]."),
@@ -35,24 +39,28 @@ def experiment_command(
     from rap.io import load_assembly
     from rap.errors import InputError
     from rap.model.train import dataset_assemblies
-    from rap.plan.experiment import EXPERIMENT_METHODS, run_experiment, write_report
+    from rap.plan.experiment import (EXPERIMENT_METHODS, method_planner, run_experiment,
+                                     write_report)
 
     if not (Path(dataset) / "_rapfarm.json").is_file():
         raise InputError(f"{dataset}: not a rap-farm dataset (no _rapfarm.json)")
     wanted = [m.strip() for m in methods.split(",") if m.strip()]
-    bad = [m for m in wanted if m not in EXPERIMENT_METHODS]
-    if bad or not wanted:
-        raise InputError(f"--methods: unknown {bad}; choose from {', '.join(EXPERIMENT_METHODS)}")
+    if not wanted:
+        raise InputError(f"--methods: choose from {', '.join(EXPERIMENT_METHODS)} or rap-kK")
+    for m in wanted:
+        method_planner(m)  # InputError for unknown names
     names = dataset_assemblies(dataset)
     if only:
         missing = sorted(set(only) - set(names))
         if missing:
             raise InputError(f"--only: {', '.join(missing)} not in {dataset} (has {', '.join(names)})")
         names = [n for n in names if n in only]
-    files = [Path(assemblies) / f"{n}.json" for n in names]
-    for f in files:
-        if not f.is_file():
-            raise InputError(f"--assemblies {assemblies}: {f.name} is missing")
+    files = []
+    for n in names:
+        found = [Path(d) / f"{n}.json" for d in assemblies if (Path(d) / f"{n}.json").is_file()]
+        if not found:
+            raise InputError(f"--assemblies {', '.join(map(str, assemblies))}: {n}.json is missing")
+        files.append(found[0])
     asms = [load_assembly(f) for f in files]
     out = out or Path("reports") / Path(dataset).resolve().name
 

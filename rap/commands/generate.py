@@ -1,13 +1,21 @@
-"""``rap-farm generate``: write synthetic assemblies for scaling experiments.
+"""``rap-farm generate``: write synthetic assemblies (scaling grids, random tilings, families).
 
 ``rap-farm generate grid --k K [--size S] -o FILE`` and
-``rap-farm generate tiling --parts N --seed S -o FILE`` (exact integer coordinates, validated).
+``rap-farm generate tiling --parts N --seed S -o FILE`` (exact integer coordinates, validated);
+``rap-farm generate FAMILY --seed S [--OPTION VALUE ...] -o FILE`` for every family of
+``rap.geometry.families`` (one sub-command each, built from the registry: an option left out is
+drawn per seed), and ``rap-farm generate list`` to print the families with their options.
+
+Family option values are read by the registry (``Option.parse``): a bad value is one line on
+stderr and exit status 2 (``InputError``), never a traceback.
 """
 
 from __future__ import annotations
 
+import inspect
 import json
 from pathlib import Path
+from typing import Optional
 
 import typer
 
@@ -29,8 +37,68 @@ def _write(assembly, out: Path) -> None:
     typer.echo(f"wrote {out} ({len(assembly)} parts)")
 
 
+def _option_help(option) -> str:
+    allowed = ", ".join(option.choices) if option.choices else f"{option.low}..{option.high}"
+    if option.default is not None:
+        default = f"default {option.default}"
+    else:
+        d = option.drawn
+        default = "drawn per seed from " + (", ".join(d) if option.choices else f"{d[0]}..{d[-1]}")
+    return f"{option.help} [{allowed}; {default}]"
+
+
+def _family_command(gen: typer.Typer, family) -> None:
+    """One sub-command for ``family``: --seed, one option per family option, -o."""
+    kw = inspect.Parameter.KEYWORD_ONLY
+    params = [inspect.Parameter("seed", kw, annotation=str, default=typer.Option(
+        "0", "--seed", metavar="INT", help="Random seed: np.random.default_rng(seed)."))]
+    for o in family.options:
+        params.append(inspect.Parameter(o.name, kw, annotation=Optional[str], default=typer.Option(
+            None, f"--{o.name.replace('_', '-')}", metavar="INT" if o.kind == "int" else "CHOICE",
+            help=_option_help(o), show_default=False)))
+    params.append(inspect.Parameter("output", kw, annotation=Path, default=typer.Option(
+        ..., "-o", "--output", help="Output JSON file.")))
+
+    def command(**values):
+        from rap.geometry.families import generate
+
+        seed = values.pop("seed")
+        out = values.pop("output")
+        try:
+            seed = int(seed)
+        except ValueError:
+            raise InputError(f"{family.name}: --seed {seed!r}: must be an integer") from None
+        opts = {o.name: o.parse(family.name, values[o.name]) for o in family.options
+                if values.get(o.name) is not None}
+        _write(generate(family.name, seed, **opts), out)
+
+    command.__signature__ = inspect.Signature(params)
+    command.__annotations__ = {p.name: p.annotation for p in params}
+    command.__doc__ = family.description
+    gen.command(family.name, help=f"{family.description} (family; see 'generate list').")(command)
+
+
+def _list() -> None:
+    from rich.table import Table
+
+    from rap.commands._console import console
+    from rap.geometry.families import FAMILIES
+
+    table = Table(title="Assembly families: rap-farm generate FAMILY --seed S [--OPTION VALUE] -o FILE",
+                  title_justify="left", show_lines=True)
+    for col in ("family", "parts", "description", "options (allowed; default)"):
+        table.add_column(col, overflow="fold")
+    for f in FAMILIES.values():
+        lo, hi = f.part_range()
+        table.add_row(f.name, f"{lo}-{hi}", f.description,
+                      "\n".join(f"--{o.name.replace('_', '-')} {o.describe().split('=', 1)[1]}"
+                                for o in f.options))
+    console().print(table)
+
+
 def register(app: typer.Typer) -> None:
-    gen = typer.Typer(help="Generate synthetic assemblies (grids, random tilings).",
+    gen = typer.Typer(help="Generate synthetic assemblies: grids, random tilings, and the assembly "
+                           "families ('generate list' prints them with their options).",
                       no_args_is_help=True)
 
     @gen.command("grid")
@@ -52,5 +120,15 @@ def register(app: typer.Typer) -> None:
         from rap.geometry.generate import random_tiling
 
         _write(random_tiling(parts, np.random.default_rng(seed)), output)
+
+    @gen.command("list")
+    def list_cmd():
+        """List the assembly families with their part counts and options."""
+        _list()
+
+    from rap.geometry.families import FAMILIES
+
+    for family in FAMILIES.values():
+        _family_command(gen, family)
 
     app.add_typer(gen, name="generate")

@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Optional
 
 import typer
+
+from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, HEAD_OPTION, LR_OPTION,
+                                         MAX_ROWS_OPTION, NORM_OPTION, RECIPE_OPTION,
+                                         SCHEDULE_OPTION, describe, resolve)
 
 __all__ = ["register", "train_command"]
 
@@ -35,6 +40,8 @@ def train_command(
                              help="Checkpoint to write [default: models/<dataset name>.pt]."),
     holdout: str = typer.Option(None, "--holdout",
                                 help="Leave this assembly out of training and report metrics on it."),
+    holdout_family: str = typer.Option(None, "--holdout-family",
+                                       help="Leave this family out of training and report metrics on it."),
     epochs: int = typer.Option(8, "--epochs", min=1, help="Passes over the training rows."),
     device: str = typer.Option("auto", "--device", help="auto (CUDA when present), cpu or cuda."),
     seed: int = typer.Option(0, "--seed", help="Seed of initialisation, dropout and shuffling."),
@@ -43,36 +50,47 @@ def train_command(
                                     help="A score >= threshold is the class 'high'."),
     threads: int = typer.Option(0, "--threads", min=0,
                                 help="torch CPU threads (0: torch's default)."),
+    recipe: str = RECIPE_OPTION,
+    head: Optional[str] = HEAD_OPTION,
+    norm: Optional[str] = NORM_OPTION,
+    augment: Optional[str] = AUGMENT_OPTION,
+    calibrate: Optional[bool] = CALIBRATE_OPTION,
+    lr: Optional[float] = LR_OPTION,
+    schedule: Optional[str] = SCHEDULE_OPTION,
+    max_rows: Optional[int] = MAX_ROWS_OPTION,
 ):
-    """Train the robustness CNN (class-weighted cross-entropy, Adam) and save a checkpoint."""
+    """Train the robustness CNN with a recipe (default 'robust') and save a checkpoint."""
     from rap.commands._console import console as make_console
 
-    from rap.model.cnn import ModelConfig, RobustnessCNN
-    from rap.model.train import TrainConfig, train
+    from rap.model.train import train
 
     out = out or Path("models") / f"{Path(dataset).resolve().name}.pt"
-    config = TrainConfig(epochs=epochs, batch_size=batch_size, seed=seed, device=device,
-                         threshold=threshold, num_threads=threads)
-    model_config = ModelConfig()
+    model_config, config = resolve(recipe, epochs=epochs, batch_size=batch_size, seed=seed,
+                                   device=device, threshold=threshold, num_threads=threads,
+                                   head=head, norm=norm, augment=augment, calibrate=calibrate,
+                                   lr=lr, schedule=schedule, max_rows=max_rows)
     console = make_console(stderr=True)
     bar, on_step = progress_bar(console)
     with bar:
-        result = train(dataset, holdout=holdout, model_config=model_config, config=config,
-                       on_step=on_step)
+        result = train(dataset, holdout=holdout, holdout_family=holdout_family,
+                       model_config=model_config, config=config, on_step=on_step)
     path = result.save(out)
     tr = result.metrics["train"]
     t = result.training
-    typer.echo(f"robustness CNN: {RobustnessCNN(model_config).num_parameters():,} parameters, "
-               f"channels {list(model_config.channels)}, hidden {list(model_config.hidden)}")
-    typer.echo(f"trained on {tr['rows']} rows ({tr['high_rows']} high; class weights "
-               f"{t['class_weights'][0]:.2f}/{t['class_weights'][1]:.2f}) on {t['device']}: "
+    typer.echo(f"robustness CNN ({recipe}): {describe(model_config, config)}")
+    typer.echo(f"trained on {tr['rows']} rows ({tr['high_rows']} high) on {t['device']}: "
                f"{tr['samples_per_s']:.0f} samples/s, {t['seconds']:.1f} s")
+    if result.calibration:
+        c = result.calibration
+        typer.echo(f"calibration temperature {c['temperature']:.3f} (fitted on {c['rows']} rows "
+                   f"of {len(c['assemblies'])} held-out assemblies)")
     if "holdout" in result.metrics:
         h = result.metrics["holdout"]
         pct = lambda x: "–" if x != x else f"{100 * x:.1f}%"  # noqa: E731 (NaN: empty class)
         typer.echo(f"holdout {h['assembly']}: accuracy {pct(h['accuracy'])}, low robustness "
                    f"{pct(h['low_accuracy'])}, high robustness {pct(h['high_accuracy'])}, "
-                   f"ECE {pct(h['ece'])} ({h['rows']} rows, {h['high_rows']} high)")
+                   f"ECE {pct(h['ece'])}, noise ceiling {pct(h.get('ceiling', float('nan')))} "
+                   f"({h['rows']} rows, {h['high_rows']} high)")
     typer.echo(f"wrote {path}")
 
 

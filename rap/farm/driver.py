@@ -140,7 +140,8 @@ def _check_out_dir(out: Path) -> None:
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: exists and is not a directory")
     if out.is_dir() and not (out / METADATA_FILE).exists():
-        if any(p for p in out.iterdir()):
+        # entries named _* or .* are not data (readers skip them too): e.g. a corpus's _assemblies
+        if any(p for p in out.iterdir() if not p.name.startswith(("_", "."))):
             raise InputError(f"--out {out}: directory is not empty and holds no rap-farm dataset "
                              f"({METADATA_FILE} missing); choose a new or empty directory")
     # Writable? Probe in the nearest existing ancestor without creating anything in the dataset.

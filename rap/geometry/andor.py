@@ -7,7 +7,13 @@ every feasible partition (``all_partitions``), whose number can be exponential: 
 with ``TooManyPartitions`` past ``max_subassemblies`` composite subassemblies or past the
 per-subassembly enumeration budget.
 
-Cost: one partition query per reachable composite subassembly (see ``rap.geometry.partitions``).
+``decomposition(ndbg)`` finds one complete disassembly into single parts over the online
+partitions (depth first, memoised per subassembly, stopping at the first success): the check that
+an assembly is not interlocked anywhere along some sequence, without enumerating the whole graph.
+
+Cost: one partition query per reachable composite subassembly (see ``rap.geometry.partitions``);
+``decomposition`` queries only the subassemblies it visits (about n - 1 when the first partition
+of every subassembly leads to a full decomposition).
 """
 
 from __future__ import annotations
@@ -20,7 +26,8 @@ from rap.geometry.partitions import (DEFAULT_MAX_COUNT, Partition, TooManyPartit
                                      all_partitions, online_partitions, partition_specs,
                                      spec_is_vertex)
 
-__all__ = ["AndOrGraph", "and_or_graph", "iter_partitions", "count_partitions", "MODES"]
+__all__ = ["AndOrGraph", "and_or_graph", "iter_partitions", "count_partitions", "decomposition",
+           "MODES"]
 
 MODES = ("online", "all")
 
@@ -157,3 +164,37 @@ def count_partitions(ndbg: NDBG, mode: str = "all", directions_per_range: int = 
                 seen.add(c)
                 stack.append(c)
     return total
+
+def decomposition(ndbg: NDBG, root: Iterable[str] | None = None) -> dict | None:
+    """One full decomposition of ``root`` (default: the whole assembly) into single parts, or None.
+
+    Returns ``{subassembly: Partition}`` for the composite subassemblies of one assembly tree
+    (each split by ``online_partitions``), found depth first with memoised failures; None when
+    every tree meets an interlocked subassembly. Recursion depth is at most the number of parts.
+    """
+    root_set = frozenset(ndbg.ids if root is None else root)
+    chosen: dict[frozenset[str], Partition | None] = {}
+
+    def solve(s: frozenset[str]) -> bool:
+        if len(s) < 2:
+            return True
+        if s in chosen:
+            return chosen[s] is not None
+        chosen[s] = None
+        for p in online_partitions(ndbg, s):
+            if solve(p.moving) and solve(p.fixed):
+                chosen[s] = p
+                return True
+        return False
+
+    if not solve(root_set):
+        return None
+    tree: dict[frozenset[str], Partition] = {}
+    stack = [root_set]
+    while stack:
+        s = stack.pop()
+        if len(s) >= 2:
+            p = chosen[s]
+            tree[s] = p
+            stack += [p.moving, p.fixed]
+    return tree

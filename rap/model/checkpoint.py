@@ -12,6 +12,7 @@ A checkpoint is a ``torch.save`` of one plain dict::
     image_stats       summary statistics of the training images (see ``data.image_stats``)
     metrics           {"train": {...}, "holdout": {...} or absent}
     training          TrainConfig as a dict, class weights, dataset path, holdout, code version
+    calibration       optional: {"temperature", "assemblies", "rows"} fitted on held-out rows
 
 Every value is a tensor, str, int, float, bool, None, list or dict, so loading uses
 ``torch.load(weights_only=True)``: a file that holds any other object is refused and no code from
@@ -54,6 +55,7 @@ class Checkpoint:
     metrics: dict
     training: dict
     path: str = ""
+    calibration: dict | None = None
 
 
 def _plain(value, where: str):
@@ -77,12 +79,14 @@ def _plain(value, where: str):
 
 def save_checkpoint(path: str | Path, model: RobustnessCNN, *, threshold: float,
                     data_fingerprint: str, assemblies: list, image_stats: dict, metrics: dict,
-                    training: dict) -> Path:
+                    training: dict, calibration: dict | None = None) -> Path:
     """Write ``model`` and its metadata to ``path`` atomically. Returns the path."""
     path = Path(path)
     meta = {"config": model.config.to_dict(), "threshold": float(threshold),
             "data_fingerprint": str(data_fingerprint), "assemblies": assemblies,
             "image_stats": image_stats, "metrics": metrics, "training": training}
+    if calibration is not None:
+        meta["calibration"] = calibration
     meta = _plain(meta, "metadata")
     blob = {"format": FORMAT, "format_version": FORMAT_VERSION, **meta,
             "state_dict": {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}}
@@ -138,7 +142,7 @@ def load_checkpoint(path: str | Path, device: str | torch.device = "cpu") -> Che
                           data_fingerprint=str(blob["data_fingerprint"]),
                           assemblies=list(blob["assemblies"]), image_stats=dict(blob["image_stats"]),
                           metrics=dict(blob["metrics"]), training=dict(blob["training"]),
-                          path=str(path))
+                          path=str(path), calibration=blob.get("calibration"))
     except (KeyError, TypeError, ValueError, RuntimeError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{path}: inconsistent checkpoint ({type(exc).__name__}: "

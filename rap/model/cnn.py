@@ -2,12 +2,14 @@
 
 Input: a batch of 2-channel 64x64 images (channel 0 the start image, channel 1 the goal image of an
 assembly operation), float in [0, 1] — ``RobustnessCNN.forward`` takes uint8 or float and scales
-uint8 itself, so callers can keep images as uint8 until the batch is on the device. Output: logits
-of the two classes, index 0 "not high" and index 1 "high" (score >= the threshold stored in the
-checkpoint, 0.95 in the paper).
+uint8 itself, so callers can keep images as uint8 until the batch is on the device. Output: the
+head's logits (``rap.model.heads``): with ``head="class"`` (the paper's) the two classes, index 0
+"not high" and index 1 "high" (score >= the threshold stored in the checkpoint, 0.95 in the
+paper); with ``head="binomial"`` one logit of the per-trial success probability.
 
-Four convolutions with 4x4 kernels, each followed by ReLU and 2x2 max-pooling; three fully
-connected layers with ReLU and dropout; a final linear layer to the two classes.
+Four convolutions with 4x4 kernels, each followed by ReLU and 2x2 max-pooling (``norm="batch"``:
+batch normalisation after each convolution); three fully connected layers with ReLU and dropout;
+a final linear layer to the head's outputs.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import torch
 import torch.nn as nn
 
 from rap.config import strict_from_dict
+from rap.model.heads import HEADS, out_features
 
 __all__ = ["ModelConfig", "RobustnessCNN", "NOT_HIGH", "HIGH"]
 
@@ -28,7 +31,8 @@ HIGH = 1
 @dataclass(frozen=True)
 class ModelConfig:
     """Shape of the network. ``channels`` are the four convolutions' output channels, ``hidden``
-    the three fully connected layers' widths."""
+    the three fully connected layers' widths; ``norm`` "none" (the paper) or "batch"; ``head``
+    "class" (the paper, ``n_classes`` outputs) or "binomial" (one output)."""
 
     in_channels: int = 2
     image_size: int = 64
@@ -38,8 +42,14 @@ class ModelConfig:
     hidden: tuple[int, int, int] = (256, 128, 64)
     dropout: float = 0.3
     n_classes: int = 2
+    norm: str = "none"
+    head: str = "class"
 
     def __post_init__(self):
+        if self.norm not in ("none", "batch"):
+            raise ValueError(f"ModelConfig: norm must be none or batch, not {self.norm!r}")
+        if self.head not in HEADS:
+            raise ValueError(f"ModelConfig: head must be one of {HEADS}, not {self.head!r}")
         # from_dict hands lists over; keep the dataclass hashable and comparable
         object.__setattr__(self, "channels", tuple(int(c) for c in self.channels))
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
@@ -68,7 +78,7 @@ class ModelConfig:
 
 
 class RobustnessCNN(nn.Module):
-    """start/goal image pair -> logits over (not high, high)."""
+    """start/goal image pair -> the head's logits (see the module docstring)."""
 
     def __init__(self, config: ModelConfig):
         super().__init__()
@@ -76,8 +86,11 @@ class RobustnessCNN(nn.Module):
         layers: list[nn.Module] = []
         c_in = config.in_channels
         for c_out in config.channels:
-            layers += [nn.Conv2d(c_in, c_out, config.kernel_size, padding=config.padding),
-                       nn.ReLU(inplace=True), nn.MaxPool2d(2)]
+            layers.append(nn.Conv2d(c_in, c_out, config.kernel_size, padding=config.padding,
+                                    bias=config.norm == "none"))
+            if config.norm == "batch":
+                layers.append(nn.BatchNorm2d(c_out))
+            layers += [nn.ReLU(inplace=True), nn.MaxPool2d(2)]
             c_in = c_out
         self.features = nn.Sequential(*layers)
         width = c_in * config.feature_size() ** 2
@@ -85,7 +98,8 @@ class RobustnessCNN(nn.Module):
         for h in config.hidden:
             head += [nn.Linear(width, h), nn.ReLU(inplace=True), nn.Dropout(config.dropout)]
             width = h
-        head.append(nn.Linear(width, config.n_classes))
+        head.append(nn.Linear(width, config.n_classes if config.head == "class"
+                              else out_features(config.head)))
         self.head = nn.Sequential(*head)
         # channels-last convolutions and pooling: 2-3x faster on CPU (oneDNN), same results
         self.to(memory_format=torch.channels_last)

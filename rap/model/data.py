@@ -4,7 +4,13 @@ Images stay uint8 ([2, 64, 64], 8 KiB a row) until a batch is handed to the netw
 it on the device. A selection that fits in ``max_memory_mb`` is read once into one uint8 array and
 shuffled each epoch by a seeded permutation of row indices (``InMemoryBatches``); a larger one is
 streamed every epoch, shards in a seeded order through a seeded shuffle buffer
-(``StreamingBatches``). Both are reproducible for a given ``numpy.random.Generator``.
+(``StreamingBatches``). Both are reproducible for a given ``numpy.random.Generator`` and yield
+``(images, labels, successes, trials)`` batches. ``RowStore`` holds a whole dataset in memory
+once, so that many folds (cross-validation, ablations) select rows by index without reading the
+shards again.
+
+Rows are selected by assembly and by family (``Selection``); schema-1 rows, which have no family,
+count as family ``custom``.
 
 Labels: 1 ("high") when ``score >= threshold``, else 0; the threshold is a parameter, stored in the
 checkpoint, never a literal here.
@@ -22,37 +28,53 @@ import numpy as np
 import pyarrow.compute as pc
 import pyarrow.dataset as pads
 
-from rap.dataset import IMAGE_BYTES, decode_images, iter_batches, open_dataset, read_meta
+from rap.dataset import IMAGE_BYTES, SCHEMA, decode_images, iter_batches, open_dataset, read_meta
 from rap.errors import InputError
 
 __all__ = ["Selection", "select", "labels_of", "data_fingerprint", "assembly_summary",
-           "image_stats", "InMemoryBatches", "StreamingBatches", "make_batches", "iter_rows"]
+           "image_stats", "InMemoryBatches", "StreamingBatches", "make_batches", "iter_rows",
+           "RowStore", "LABEL_COLUMNS"]
+
+LABEL_COLUMNS = ("score", "successes", "trials", "image")
 
 
 @dataclass(frozen=True)
 class Selection:
-    """Rows of a dataset chosen by assembly: ``include`` (None = all) minus ``exclude``."""
+    """Rows of a dataset chosen by assembly and family: ``include`` (None = all) minus
+    ``exclude``, restricted to ``families`` (None = all) minus ``exclude_families``."""
 
     root: str
     include: tuple[str, ...] | None = None
     exclude: tuple[str, ...] = ()
+    families: tuple[str, ...] | None = None
+    exclude_families: tuple[str, ...] = ()
 
     @property
     def filter(self) -> pads.Expression | None:
         expr = None
+
+        def both(e):
+            return e if expr is None else expr & e
+
         if self.include is not None:
-            expr = pc.field("assembly").isin(list(self.include))
+            expr = both(pc.field("assembly").isin(list(self.include)))
         if self.exclude:
-            ex = ~pc.field("assembly").isin(list(self.exclude))
-            expr = ex if expr is None else expr & ex
+            expr = both(~pc.field("assembly").isin(list(self.exclude)))
+        fam = pc.if_else(pc.field("family").is_null(), "custom", pc.field("family"))
+        if self.families is not None:
+            expr = both(fam.isin(list(self.families)))
+        if self.exclude_families:
+            expr = both(~fam.isin(list(self.exclude_families)))
         return expr
 
     def count(self) -> int:
         return open_dataset(self.root).count_rows(filter=self.filter)
 
 
-def select(root: str | Path, *, include=None, exclude=()) -> Selection:
-    return Selection(str(root), tuple(include) if include is not None else None, tuple(exclude))
+def select(root: str | Path, *, include=None, exclude=(), families=None,
+           exclude_families=()) -> Selection:
+    return Selection(str(root), tuple(include) if include is not None else None, tuple(exclude),
+                     tuple(families) if families is not None else None, tuple(exclude_families))
 
 
 def labels_of(scores: np.ndarray, threshold: float) -> np.ndarray:
@@ -86,11 +108,14 @@ def assembly_summary(sel: Selection, threshold: float) -> list[dict]:
 
 
 def iter_rows(sel: Selection, batch_size: int = 256,
-              columns=("score", "image")) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """(uint8 images [n, 2, 64, 64], scores [n]) batches of the selection, in dataset order."""
-    for rb in iter_batches(sel.root, columns=list(columns), batch_size=batch_size, filter=sel.filter):
+              columns=("score", "image")) -> Iterator[tuple[np.ndarray, ...]]:
+    """(uint8 images [n, 2, 64, 64], then the other ``columns`` in order) batches of the
+    selection, in dataset order; by default (images, scores)."""
+    others = [c for c in columns if c != "image"]
+    for rb in iter_batches(sel.root, columns=[*others, "image"], batch_size=batch_size,
+                           filter=sel.filter):
         if rb.num_rows:
-            yield decode_images(rb.column("image")), rb.column("score").to_numpy()
+            yield (decode_images(rb.column("image")), *(rb.column(c).to_numpy() for c in others))
 
 
 def image_stats(batches) -> dict:
@@ -121,20 +146,41 @@ def image_stats(batches) -> dict:
 
 
 class InMemoryBatches:
-    """The selection read once into a uint8 array; each epoch a seeded permutation of its rows."""
+    """Rows in one uint8 array; each epoch a seeded permutation of them. Built from a selection
+    (read once) or from a ``RowStore`` and row indices (``from_store``: no copy of the images)."""
 
-    def __init__(self, sel: Selection, threshold: float, batch_size: int):
+    def __init__(self, sel: Selection | None, threshold: float, batch_size: int):
+        self.batch_size = batch_size
+        self.index = None
+        if sel is None:
+            return
         n = sel.count()
         self.images = np.empty((n, 2, 64, 64), dtype=np.uint8)
         self.labels = np.empty(n, dtype=np.int64)
+        self.successes = np.empty(n, dtype=np.int64)
+        self.trials = np.empty(n, dtype=np.int64)
         i = 0
-        for images, scores in iter_rows(sel):
-            k = len(images)
-            self.images[i:i + k] = images
-            self.labels[i:i + k] = labels_of(scores, threshold)
+        for rb in iter_batches(sel.root, columns=list(LABEL_COLUMNS), filter=sel.filter):
+            k = rb.num_rows
+            if not k:
+                continue
+            self.images[i:i + k] = decode_images(rb.column("image"))
+            self.labels[i:i + k] = labels_of(rb.column("score").to_numpy(), threshold)
+            self.successes[i:i + k] = rb.column("successes").to_numpy()
+            self.trials[i:i + k] = rb.column("trials").to_numpy()
             i += k
         assert i == n, "dataset changed while reading"
-        self.batch_size = batch_size
+
+    @classmethod
+    def from_store(cls, store: "RowStore", index: np.ndarray, threshold: float,
+                   batch_size: int) -> "InMemoryBatches":
+        b = cls(None, threshold, batch_size)
+        b.index = np.sort(np.asarray(index, dtype=np.int64))
+        b.images = store.images  # gathered per batch through the index
+        b.labels = labels_of(store.scores[b.index], threshold)
+        b.successes = store.successes[b.index]
+        b.trials = store.trials[b.index]
+        return b
 
     def __len__(self) -> int:
         return len(self.labels)
@@ -142,11 +188,18 @@ class InMemoryBatches:
     def class_counts(self) -> np.ndarray:
         return np.bincount(self.labels, minlength=2)
 
-    def epoch(self, rng: np.random.Generator) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    def image_batches(self, size: int = 1024) -> Iterator[np.ndarray]:
+        """The images in row order (for statistics)."""
+        for s in range(0, len(self.labels), size):
+            yield (self.images[s:s + size] if self.index is None
+                   else self.images[self.index[s:s + size]])
+
+    def epoch(self, rng: np.random.Generator) -> Iterator[tuple[np.ndarray, ...]]:
         order = rng.permutation(len(self.labels))
         for s in range(0, len(order), self.batch_size):
             idx = np.sort(order[s:s + self.batch_size])  # sorted gather: faster, same batch
-            yield self.images[idx], self.labels[idx]
+            rows = idx if self.index is None else self.index[idx]
+            yield self.images[rows], self.labels[idx], self.successes[idx], self.trials[idx]
 
 
 class StreamingBatches:
@@ -159,8 +212,10 @@ class StreamingBatches:
         self.batch_size = batch_size
         self.buffer_rows = max(buffer_rows, batch_size)
         self.files = sorted(open_dataset(sel.root).files)
-        scores = open_dataset(sel.root).to_table(columns=["score"], filter=sel.filter)
-        self.labels_all = labels_of(scores.column("score").to_numpy(), threshold)
+        t = open_dataset(sel.root).to_table(columns=["score", "trials"], filter=sel.filter)
+        self.labels_all = labels_of(t.column("score").to_numpy(), threshold)
+        self.trials = t.column("trials").to_numpy().astype(np.int64)
+        self.index = None
 
     def __len__(self) -> int:
         return len(self.labels_all)
@@ -168,34 +223,39 @@ class StreamingBatches:
     def class_counts(self) -> np.ndarray:
         return np.bincount(self.labels_all, minlength=2)
 
-    def epoch(self, rng: np.random.Generator) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-        imgs: list[np.ndarray] = []
-        labs: list[np.ndarray] = []
+    def image_batches(self, size: int = 1024) -> Iterator[np.ndarray]:
+        for images, _ in iter_rows(self.sel, batch_size=size):
+            yield images
+
+    def epoch(self, rng: np.random.Generator) -> Iterator[tuple[np.ndarray, ...]]:
+        parts: list[list[np.ndarray]] = [[], [], [], []]  # images, labels, successes, trials
         held = 0
+
+        def emit_from(order, upto):
+            cat = [np.concatenate(p) for p in parts]
+            for s in range(0, upto, self.batch_size):
+                idx = order[s:s + self.batch_size]
+                yield tuple(c[idx] for c in cat)
+            rest = order[upto:]
+            return [[c[rest]] for c in cat], len(rest)
+
         for f in rng.permutation(len(self.files)):
-            ds = pads.dataset(self.files[f], format="parquet")
-            for rb in ds.to_batches(columns=["score", "image"], filter=self.sel.filter):
+            ds = pads.dataset(self.files[f], schema=SCHEMA, format="parquet")
+            for rb in ds.to_batches(columns=list(LABEL_COLUMNS), filter=self.sel.filter):
                 if not rb.num_rows:
                     continue
-                imgs.append(decode_images(rb.column("image")).copy())
-                labs.append(labels_of(rb.column("score").to_numpy(), self.threshold))
+                parts[0].append(decode_images(rb.column("image")).copy())
+                parts[1].append(labels_of(rb.column("score").to_numpy(), self.threshold))
+                parts[2].append(rb.column("successes").to_numpy().astype(np.int64))
+                parts[3].append(rb.column("trials").to_numpy().astype(np.int64))
                 held += rb.num_rows
                 if held >= self.buffer_rows:
-                    images, labels = np.concatenate(imgs), np.concatenate(labs)
                     order = rng.permutation(held)
                     emit = held - self.buffer_rows // 2  # emit whole batches, keep half a buffer
                     emit -= emit % self.batch_size
-                    for s in range(0, emit, self.batch_size):
-                        idx = order[s:s + self.batch_size]
-                        yield images[idx], labels[idx]
-                    rest = order[emit:]
-                    imgs, labs, held = [images[rest]], [labels[rest]], len(rest)
+                    parts, held = yield from emit_from(order, emit)
         if held:
-            images, labels = np.concatenate(imgs), np.concatenate(labs)
-            order = rng.permutation(held)
-            for s in range(0, held, self.batch_size):
-                idx = order[s:s + self.batch_size]
-                yield images[idx], labels[idx]
+            parts, held = yield from emit_from(rng.permutation(held), held)
 
 
 def make_batches(sel: Selection, threshold: float, batch_size: int, max_memory_mb: float):
@@ -207,3 +267,63 @@ def make_batches(sel: Selection, threshold: float, batch_size: int, max_memory_m
         return InMemoryBatches(sel, threshold, batch_size)
     buffer_rows = max(int(max_memory_mb * 2 ** 20 // IMAGE_BYTES) // 2, batch_size)
     return StreamingBatches(sel, threshold, batch_size, buffer_rows)
+
+
+class RowStore:
+    """A whole dataset's labelled rows in memory, read once: uint8 images [N, 2, 64, 64], scores,
+    successes, trials, and per row its key, assembly and family (``custom`` for schema-1 rows).
+    ``index(...)`` selects rows the way ``Selection`` does, as a sorted index array. Memory: about
+    8.2 KiB a row."""
+
+    def __init__(self, root: str | Path):
+        self.root = str(Path(root).resolve())
+        t = open_dataset(self.root).to_table(
+            columns=["key", "assembly", "geometry_hash", "family", "score", "successes", "trials",
+                     "image"])
+        self.images = decode_images(t.column("image")).copy()
+        self.scores = t.column("score").to_numpy()
+        self.successes = t.column("successes").to_numpy().astype(np.int64)
+        self.trials = t.column("trials").to_numpy().astype(np.int64)
+        self.keys = np.array(t.column("key").to_pylist(), dtype=object)
+        self.assembly = np.array(t.column("assembly").to_pylist(), dtype=object)
+        self.geometry_hash = np.array(t.column("geometry_hash").to_pylist(), dtype=object)
+        fam = pc.if_else(pc.is_null(t.column("family")), "custom", t.column("family"))
+        self.family = np.array(fam.to_pylist(), dtype=object)
+
+    def __len__(self) -> int:
+        return len(self.scores)
+
+    def index(self, sel: Selection) -> np.ndarray:
+        mask = np.ones(len(self), dtype=bool)
+        if sel.include is not None:
+            mask &= np.isin(self.assembly, list(sel.include))
+        if sel.exclude:
+            mask &= ~np.isin(self.assembly, list(sel.exclude))
+        if sel.families is not None:
+            mask &= np.isin(self.family, list(sel.families))
+        if sel.exclude_families:
+            mask &= ~np.isin(self.family, list(sel.exclude_families))
+        return np.flatnonzero(mask)
+
+    def fingerprint(self, index: np.ndarray) -> str:
+        """``data_fingerprint`` of the rows at ``index`` (same value as for the selection)."""
+        h = hashlib.sha256()
+        meta = read_meta(self.root)
+        h.update(json.dumps(meta.__dict__ if meta else None, sort_keys=True).encode())
+        for k in sorted(self.keys[index].tolist()):
+            h.update(k.encode())
+            h.update(b"\n")
+        return h.hexdigest()
+
+    def summary(self, index: np.ndarray, threshold: float) -> list[dict]:
+        """``assembly_summary`` of the rows at ``index``."""
+        out = []
+        names = self.assembly[index]
+        hashes = self.geometry_hash[index]
+        labels = labels_of(self.scores[index], threshold)
+        for name in sorted(set(names.tolist())):
+            m = names == name
+            hs = sorted(set(hashes[m].tolist()))
+            out.append({"name": str(name), "geometry_hash": hs[0] if len(hs) == 1 else hs,
+                        "rows": int(m.sum()), "high_fraction": float(labels[m].mean())})
+        return out

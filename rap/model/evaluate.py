@@ -1,10 +1,15 @@
-"""Leave-one-assembly-out cross-validation of the robustness CNN (the paper's Table I).
+"""Cross-validation of the robustness CNN: leave one assembly out (the paper's Table I) and leave
+one family out (generalisation to a kind of assembly never seen).
 
-For each assembly of a dataset, a model is trained on the others and tested on it. A fold is one
-call of ``run_fold`` over plain values, so folds run in-process one after the other
-(``sequential_folds``) or as parallel tasks elsewhere (``rap.farm.folds``, which wraps the same
-function for Ray). ``write_report`` writes the table (Markdown, CSV), the per-fold metrics (JSON)
-and a plot: accuracies per test assembly and the pooled reliability diagram of P(high).
+A fold is a test set, one assembly (``kind="assembly"``) or every assembly of one family
+(``kind="family"``), and a model trained on all the other rows of the dataset. A fold is one call
+of ``run_fold`` over plain values, so folds run in-process one after the other
+(``sequential_folds``, sharing one in-memory ``RowStore`` of the dataset) or as parallel tasks
+elsewhere (``rap.farm.folds``, which wraps the same function for Ray). Every fold reports accuracy,
+per-class accuracy, ECE and the noise ceiling of its test rows (``rap.model.metrics``).
+
+``write_report`` writes one table per kind (Markdown, CSV), the per-fold metrics (JSON) and a plot
+per kind: accuracies per test set and the pooled reliability diagram of P(high).
 """
 
 from __future__ import annotations
@@ -18,42 +23,69 @@ from typing import Callable, Iterable, Iterator
 
 import numpy as np
 
+from rap.dataset import IMAGE_BYTES
 from rap.model.cnn import ModelConfig
+from rap.model.data import RowStore, select
 from rap.model.metrics import expected_calibration_error, pool_reliability, reliability_table
 from rap.model.train import TrainConfig, dataset_assemblies, train
 
 __all__ = ["fold_specs", "run_fold", "sequential_folds", "cross_validate", "summary_rows",
-           "write_report", "COLUMNS"]
+           "write_report", "COLUMNS", "KINDS", "row_store"]
 
 COLUMNS = ("accuracy", "low_accuracy", "high_accuracy")
+KINDS = ("assembly", "family")
+_STORES: dict[str, RowStore] = {}
+
+
+def row_store(root: str | Path, max_memory_mb: float) -> RowStore | None:
+    """The dataset held in memory once per process (None when it does not fit the budget)."""
+    root = str(Path(root).resolve())
+    if root not in _STORES:
+        if select(root).count() * (IMAGE_BYTES + 256) > max_memory_mb * 2 ** 20:
+            return None
+        _STORES.clear()
+        _STORES[root] = RowStore(root)
+    return _STORES[root]
 FoldRunner = Callable[[list[dict]], Iterable[dict]]
 
 
 def fold_specs(root: str | Path, model_config: ModelConfig, config: TrainConfig,
-               assemblies: list[str] | None = None, models_dir: str | Path | None = None) -> list[dict]:
-    """One plain-dict spec per test assembly (all of the dataset's by default)."""
+               assemblies: list[str] | None = None, models_dir: str | Path | None = None,
+               kind: str = "assembly") -> list[dict]:
+    """One plain-dict spec per test set: per assembly (all of the dataset's by default) or, with
+    ``kind="family"``, per family (``assemblies`` then names families). The fold's model is saved
+    as ``holdout-NAME.pt`` (``holdout-family-NAME.pt``) under ``models_dir`` when given."""
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {KINDS}")
     root = str(Path(root).resolve())
     names = assemblies or dataset_assemblies(root)
     specs = []
     for name in names:
-        save_to = str(Path(models_dir).resolve() / f"holdout-{name}.pt") if models_dir else None
-        specs.append({"root": root, "assembly": name, "model_config": model_config.to_dict(),
-                      "train_config": config.to_dict(), "save_to": save_to})
+        stem = f"holdout-{name}" if kind == "assembly" else f"holdout-family-{name}"
+        save_to = str(Path(models_dir).resolve() / f"{stem}.pt") if models_dir else None
+        specs.append({"root": root, "kind": kind, "assembly": name,
+                      "model_config": model_config.to_dict(), "train_config": config.to_dict(),
+                      "save_to": save_to})
     return specs
 
 
 def run_fold(spec: dict) -> dict:
-    """Train without ``spec["assembly"]``, test on it; save the model when ``save_to`` is set.
-    Returns plain values: assembly, holdout metrics, training summary, seconds, checkpoint path."""
+    """Train without the fold's test set, test on it; save the model when ``save_to`` is set.
+    Returns plain values: kind, test name (``assembly``), holdout metrics, training summary,
+    seconds, checkpoint path."""
     t0 = time.perf_counter()
-    result = train(spec["root"], holdout=spec["assembly"],
-                   model_config=ModelConfig.from_dict(spec["model_config"]),
-                   config=TrainConfig(**spec["train_config"]))
+    config = TrainConfig(**spec["train_config"])
+    kind = spec.get("kind", "assembly")
+    store = row_store(spec["root"], config.max_memory_mb)
+    result = train(spec["root"], holdout=spec["assembly"] if kind == "assembly" else None,
+                   holdout_family=spec["assembly"] if kind == "family" else None,
+                   model_config=ModelConfig.from_dict(spec["model_config"]), config=config,
+                   store=store)
     if spec.get("save_to"):
         result.save(spec["save_to"])
-    return {"assembly": spec["assembly"], "metrics": result.metrics["holdout"],
-            "train": result.metrics["train"], "seconds": time.perf_counter() - t0,
-            "checkpoint": spec.get("save_to")}
+    return {"kind": kind, "assembly": spec["assembly"], "metrics": result.metrics["holdout"],
+            "train": result.metrics["train"], "calibration": result.calibration,
+            "seconds": time.perf_counter() - t0, "checkpoint": spec.get("save_to")}
 
 
 def sequential_folds(specs: list[dict]) -> Iterator[dict]:
@@ -69,21 +101,22 @@ def cross_validate(specs: list[dict], runner: FoldRunner = sequential_folds,
         folds.append(fold)
         if on_fold is not None:
             on_fold(fold)
-    return sorted(folds, key=lambda f: f["assembly"])
+    return sorted(folds, key=lambda f: (KINDS.index(f.get("kind", "assembly")), f["assembly"]))
 
 
 def summary_rows(folds: list[dict]) -> list[dict]:
-    """One row per fold plus the mean over folds (unweighted, as in the paper)."""
+    """One row per fold plus the mean over folds (unweighted, as in the paper). Folds of one kind."""
     rows = []
     for f in folds:
         m = f["metrics"]
         rows.append({"assembly": f["assembly"], "rows": m["rows"], "high_rows": m["high_rows"],
                      **{c: m[c] for c in COLUMNS}, "ece": m["ece"],
+                     "ceiling": m.get("ceiling", math.nan),
                      "train_rows": f["train"]["rows"], "seconds": f["seconds"]})
     mean = {"assembly": "mean", "rows": sum(r["rows"] for r in rows),
             "high_rows": sum(r["high_rows"] for r in rows),
             "train_rows": "", "seconds": sum(r["seconds"] for r in rows)}
-    for c in (*COLUMNS, "ece"):
+    for c in (*COLUMNS, "ece", "ceiling"):
         vals = [r[c] for r in rows if not math.isnan(r[c])]
         mean[c] = float(np.mean(vals)) if vals else math.nan
     return rows + [mean]
@@ -93,25 +126,41 @@ def _pct(x) -> str:
     return "–" if isinstance(x, float) and math.isnan(x) else f"{100 * x:.2f}"
 
 
-def _markdown(folds: list[dict], rows: list[dict], pooled: dict, title: str, notes: dict) -> str:
-    out = [f"# {title}", "",
-           "Leave-one-assembly-out cross-validation: each row is a model trained on every other "
-           "assembly and tested on this one. Low / high robustness: accuracy on the rows whose "
-           f"score is below / at least the threshold {notes['threshold']}. Percent.", "",
-           "| Test assembly | Rows | High rows | Accuracy | Low robustness | High robustness | ECE |",
-           "|---|---:|---:|---:|---:|---:|---:|"]
-    for r in rows:
-        name = f"**{r['assembly']}**" if r["assembly"] == "mean" else r["assembly"]
-        out.append(f"| {name} | {r['rows']} | {r['high_rows']} | {_pct(r['accuracy'])} | "
-                   f"{_pct(r['low_accuracy'])} | {_pct(r['high_accuracy'])} | {_pct(r['ece'])} |")
-    out += ["", "## Calibration of P(high) (all folds pooled)", "",
-            f"Expected calibration error: {_pct(expected_calibration_error(pooled))}% "
-            "(row-weighted mean |mean P(high) - observed fraction high| over 10 bins).", "",
-            "| P(high) bin | Rows | Mean P(high) | Observed high |", "|---|---:|---:|---:|"]
-    for b in reliability_table(pooled):
-        out.append(f"| {b['lo']:.1f}-{b['hi']:.1f} | {b['rows']} | {_pct(b['mean_prob_high'])} | "
-                   f"{_pct(b['frac_high'])} |")
-    out += ["", "## Setup", ""]
+_HEADINGS = {
+    "assembly": ("Leave one assembly out", "Test assembly",
+                 "each row is a model trained on every other assembly of the dataset and tested "
+                 "on this one"),
+    "family": ("Leave one family out", "Test family",
+               "each row is a model trained on every assembly outside this family and tested on "
+               "all of the family's assemblies"),
+}
+
+
+def _markdown(by_kind: dict, title: str, notes: dict) -> str:
+    out = [f"# {title}", ""]
+    for kind, (folds, rows, pooled) in by_kind.items():
+        heading, col, what = _HEADINGS[kind]
+        out += [f"## {heading}", "",
+                f"{heading}: {what}. Low / high robustness: accuracy on the rows whose score is "
+                f"below / at least the threshold {notes['threshold']}. Ceiling: the expected "
+                "agreement of a perfect model with these noisy labels (see rap.model.metrics). "
+                "Percent.", "",
+                f"| {col} | Rows | High rows | Accuracy | Low robustness | High robustness | ECE | "
+                "Ceiling |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+        for r in rows:
+            name = f"**{r['assembly']}**" if r["assembly"] == "mean" else r["assembly"]
+            out.append(f"| {name} | {r['rows']} | {r['high_rows']} | {_pct(r['accuracy'])} | "
+                       f"{_pct(r['low_accuracy'])} | {_pct(r['high_accuracy'])} | "
+                       f"{_pct(r['ece'])} | {_pct(r['ceiling'])} |")
+        out += ["", f"### Calibration of P(high) ({heading.lower()}, all folds pooled)", "",
+                f"Expected calibration error: {_pct(expected_calibration_error(pooled))}% "
+                "(row-weighted mean |mean P(high) - observed fraction high| over 10 bins).", "",
+                "| P(high) bin | Rows | Mean P(high) | Observed high |", "|---|---:|---:|---:|"]
+        for b in reliability_table(pooled):
+            out.append(f"| {b['lo']:.1f}-{b['hi']:.1f} | {b['rows']} | "
+                       f"{_pct(b['mean_prob_high'])} | {_pct(b['frac_high'])} |")
+        out.append("")
+    out += ["## Setup", ""]
     out += [f"- {k}: {v}" for k, v in notes.items()]
     return "\n".join(out) + "\n"
 
@@ -156,18 +205,70 @@ def _json_safe(value):
 
 
 def write_report(folds: list[dict], out_dir: str | Path, title: str, notes: dict) -> list[Path]:
-    """table.md, table.csv, folds.json and crossval.png under ``out_dir``. Returns the paths."""
+    """table.md, table.csv, folds.json and crossval.png (crossval-family.png for family folds)
+    under ``out_dir``. Returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    rows = summary_rows(folds)
-    pooled = pool_reliability([f["metrics"]["reliability"] for f in folds])
-    paths = [out / "table.md", out / "table.csv", out / "folds.json", out / "crossval.png"]
-    paths[0].write_text(_markdown(folds, rows, pooled, title, notes))
+    by_kind = {}
+    for kind in KINDS:
+        fk = [f for f in folds if f.get("kind", "assembly") == kind]
+        if fk:
+            by_kind[kind] = (fk, summary_rows(fk),
+                             pool_reliability([f["metrics"]["reliability"] for f in fk]))
+    paths = [out / "table.md", out / "table.csv", out / "folds.json"]
+    paths[0].write_text(_markdown(by_kind, title, notes))
     with open(paths[1], "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    report = {"notes": notes, "folds": folds, "pooled_reliability": reliability_table(pooled)}
+        w = None
+        for kind, (_, rows, _) in by_kind.items():
+            for r in rows:
+                r = {"kind": kind, **r}
+                if w is None:
+                    w = csv.DictWriter(fh, fieldnames=list(r))
+                    w.writeheader()
+                w.writerow(r)
+    report = {"notes": notes, "folds": folds,
+              "pooled_reliability": {k: reliability_table(v[2]) for k, v in by_kind.items()}}
     paths[2].write_text(json.dumps(_json_safe(report), indent=2, allow_nan=False))
-    _plot(rows, pooled, paths[3], title)
+    for kind, (_, rows, pooled) in by_kind.items():
+        png = out / ("crossval.png" if kind == "assembly" or len(by_kind) == 1
+                     else f"crossval-{kind}.png")
+        _plot(rows, pooled, png, f"{title} ({_HEADINGS[kind][0].lower()})")
+        paths.append(png)
     return paths
+
+
+def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "assembly",
+                     device: str = "cpu", batch_size: int = 512) -> list[dict]:
+    """Metrics of an existing checkpoint on a dataset, without training: one row per assembly
+    (``by="assembly"``) or per family (``by="family"``) plus an ``all`` row. Streams the dataset
+    (O(batch) memory besides the per-row labels and probabilities)."""
+    from rap.dataset import decode_images, iter_batches
+    from rap.model.metrics import classification_metrics
+    from rap.model.predict import Predictor
+    from rap.model.train import successes_of
+
+    if by not in KINDS:
+        raise ValueError(f"by must be one of {KINDS}")
+    pred = Predictor.load(model_path, device=device)
+    groups, scores, trials, probs = [], [], [], []
+    for rb in iter_batches(root, columns=["assembly", "family", "score", "trials", "image"],
+                           batch_size=batch_size):
+        if not rb.num_rows:
+            continue
+        g = rb.column(by).to_pylist()
+        groups += [x if x is not None else "custom" for x in g]
+        scores.append(rb.column("score").to_numpy())
+        trials.append(rb.column("trials").to_numpy())
+        probs.append(pred.prob_high(decode_images(rb.column("image"))))
+    if not groups:
+        return []
+    groups_a = np.array(groups, dtype=object)
+    sc, tr, pr = np.concatenate(scores), np.concatenate(trials), np.concatenate(probs)
+    th = pred.threshold
+    rows = []
+    for name in [*sorted(set(groups)), None]:
+        m = np.ones(len(sc), dtype=bool) if name is None else groups_a == name
+        met = classification_metrics((sc[m] >= th).astype(np.int64), pr[m],
+                                     successes_of(sc[m], tr[m]), tr[m], th, reliability=False)
+        rows.append({by: "all" if name is None else name, **met})
+    return rows

@@ -7,6 +7,15 @@ Calibration: the rows are binned by ``prob_high`` into ``RELIABILITY_BINS`` equa
 mean predicted probability and the observed fraction of high rows (reliability table). The
 expected calibration error is the row-weighted mean of their absolute difference. Bins are kept as
 sums so that folds can be pooled (``pool_reliability``).
+
+Noise ceiling (``noise_ceiling``): a label is one draw of ``n`` noisy trials, so an operation
+whose success rate is near the threshold lands in either class almost at random, and no model can
+agree with such labels every time. The ceiling is the expected agreement between a fresh label and
+the best possible prediction, one that knows each operation's true success rate p and predicts
+"high" iff P(Bin(n, p) >= k) >= 1/2: per row, E[max(q(p), 1 - q(p))] with q(p) = P(Bin(n, p) >= k)
+and p under the posterior Beta(s + 1, n - s + 1) of the row's s successes (uniform prior), by
+quadrature on a grid of p. Rows share the value of their (s, n), so the cost is O(distinct counts
+x grid), not O(rows).
 """
 
 from __future__ import annotations
@@ -16,7 +25,7 @@ import math
 import numpy as np
 
 __all__ = ["RELIABILITY_BINS", "classification_metrics", "reliability_sums", "pool_reliability",
-           "reliability_table", "expected_calibration_error"]
+           "reliability_table", "expected_calibration_error", "noise_ceiling"]
 
 RELIABILITY_BINS = 10
 
@@ -63,14 +72,53 @@ def expected_calibration_error(sums: dict) -> float:
     return float(sum(abs(p - h) for p, h in zip(sums["sum_prob"], sums["sum_high"])) / total)
 
 
-def classification_metrics(labels: np.ndarray, prob_high: np.ndarray) -> dict:
+_GRID = np.linspace(0.0, 1.0, 4001)[1:-1]
+
+
+def _agreement(p: np.ndarray, n: int, k: int) -> np.ndarray:
+    """max(q, 1 - q) with q = P(Bin(n, p) >= k), for an array of p (exact finite sum)."""
+    if k <= 0 or k > n:
+        return np.ones_like(p)
+    lp, lq = np.log(p), np.log1p(-p)
+    terms = np.stack([math.lgamma(n + 1) - math.lgamma(j + 1) - math.lgamma(n - j + 1)
+                      + j * lp + (n - j) * lq for j in range(k, n + 1)])
+    mx = terms.max(axis=0)
+    q = np.clip(np.exp(mx) * np.exp(terms - mx).sum(axis=0), 0.0, 1.0)
+    return np.maximum(q, 1.0 - q)
+
+
+def noise_ceiling(successes: np.ndarray, trials: np.ndarray, threshold: float) -> float:
+    """The expected agreement of the best possible prediction with fresh labels (module doc)."""
+    successes = np.asarray(successes, dtype=np.int64)
+    trials = np.asarray(trials, dtype=np.int64)
+    if len(successes) == 0:
+        return math.nan
+    total = 0.0
+    pairs, counts = np.unique(np.stack([successes, trials]), axis=1, return_counts=True)
+    for (s, n), c in zip(pairs.T, counts):
+        k = max(0, math.ceil(threshold * n - 1e-9))
+        logw = s * np.log(_GRID) + (n - s) * np.log1p(-_GRID)
+        w = np.exp(logw - logw.max())
+        total += c * float((w * _agreement(_GRID, int(n), k)).sum() / w.sum())
+    return total / len(successes)
+
+
+def classification_metrics(labels: np.ndarray, prob_high: np.ndarray,
+                           successes: np.ndarray | None = None, trials: np.ndarray | None = None,
+                           threshold: float = 0.95, reliability: bool = True) -> dict:
     """Accuracy overall, on not-high rows (low) and on high rows (high); class counts; ECE and
-    the reliability sums. Empty classes give NaN accuracies."""
+    the reliability sums; with ``successes`` and ``trials`` the noise ceiling too. Empty classes
+    give NaN accuracies."""
     labels = np.asarray(labels, dtype=np.int64)
     prob_high = np.asarray(prob_high, dtype=np.float64)
     hit = (prob_high >= 0.5).astype(np.int64) == labels
     rel = reliability_sums(labels, prob_high)
-    return {"rows": int(len(labels)), "high_rows": int(labels.sum()),
-            "accuracy": _rate(hit), "low_accuracy": _rate(hit[labels == 0]),
-            "high_accuracy": _rate(hit[labels == 1]),
-            "ece": expected_calibration_error(rel), "reliability": rel}
+    out = {"rows": int(len(labels)), "high_rows": int(labels.sum()),
+           "accuracy": _rate(hit), "low_accuracy": _rate(hit[labels == 0]),
+           "high_accuracy": _rate(hit[labels == 1]),
+           "ece": expected_calibration_error(rel)}
+    if reliability:
+        out["reliability"] = rel
+    if successes is not None and trials is not None:
+        out["ceiling"] = noise_ceiling(successes, trials, threshold)
+    return out

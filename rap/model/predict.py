@@ -1,13 +1,15 @@
-"""The planner's view of a trained robustness CNN: images in, P(high) out.
+"""The planner's view of a trained robustness CNN: images in, P(high) and expected scores out.
 
     predictor = Predictor.load("models/default.pt")          # device="cpu" by default
     p = predictor.prob_high(images)   # images: uint8 [N, 2, 64, 64] -> float64 [N]
+    s = predictor.expected_score(images)   # the expected success rate (binomial head)
     predictor.threshold               # a score >= threshold is "high" (0.95 in the paper)
     predictor.is_high(images)         # p >= 0.5, the classifier's decision
     predictor.trained_on(geometry_hash), predictor.shift(images)   # distance from training data
 
-``prob_high`` scores one batch in eval mode without gradients; the planner ranks the candidate
-operations of a step by it. Loading never runs code from the file (see ``checkpoint``).
+``prob_high`` scores one batch in eval mode without gradients, through the checkpoint's head and
+calibration temperature (``rap.model.heads``); the planner ranks the candidate operations of a
+step by it. Loading never runs code from the file (see ``checkpoint``).
 """
 
 from __future__ import annotations
@@ -18,11 +20,12 @@ import numpy as np
 import torch
 
 from rap.errors import InputError
+from rap.model import heads
 from rap.model.checkpoint import Checkpoint, load_checkpoint
-from rap.model.cnn import HIGH, RobustnessCNN
+from rap.model.cnn import RobustnessCNN
 from rap.model.data import image_stats
 
-__all__ = ["Predictor", "batch_prob_high", "resolve_device"]
+__all__ = ["Predictor", "batch_outputs", "batch_prob_high", "resolve_device"]
 
 
 def resolve_device(name: str | torch.device = "auto") -> torch.device:
@@ -39,10 +42,17 @@ def resolve_device(name: str | torch.device = "auto") -> torch.device:
 
 
 @torch.no_grad()
-def batch_prob_high(model: RobustnessCNN, images: np.ndarray, device: torch.device) -> np.ndarray:
-    """Softmax probability of "high" for uint8 images [N, 2, 64, 64], one forward pass."""
+def batch_outputs(model: RobustnessCNN, images: np.ndarray, device: torch.device) -> np.ndarray:
+    """The network's raw outputs (logits) for uint8 images [N, 2, 64, 64], one forward pass."""
     x = torch.from_numpy(np.ascontiguousarray(images)).to(device)
-    return torch.softmax(model(x).float(), dim=1)[:, HIGH].cpu().numpy().astype(np.float64)
+    return model(x).double().cpu().numpy()
+
+
+def batch_prob_high(model: RobustnessCNN, images: np.ndarray, device: torch.device,
+                    threshold: float = 0.95, trials: int = 100, temperature: float = 1.0) -> np.ndarray:
+    """P(high) for uint8 images [N, 2, 64, 64] through the model's head (see ``rap.model.heads``)."""
+    return heads.prob_high_np(batch_outputs(model, images, device), model.config.head, threshold,
+                              trials, temperature)
 
 
 class Predictor:
@@ -64,6 +74,18 @@ class Predictor:
     @property
     def threshold(self) -> float:
         return self.checkpoint.threshold
+
+    @property
+    def head(self) -> str:
+        return self.checkpoint.config.head
+
+    @property
+    def temperature(self) -> float:
+        return float((self.checkpoint.calibration or {}).get("temperature", 1.0))
+
+    @property
+    def trials(self) -> int:
+        return int(self.checkpoint.training.get("trials", 100))
 
     @property
     def config(self):
@@ -95,10 +117,24 @@ class Predictor:
         if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != self.image_shape:
             raise ValueError(f"images must be uint8 [N, {', '.join(map(str, self.image_shape))}], "
                              f"got {images.dtype} {list(images.shape)}")
+        return heads.prob_high_np(self.outputs(images), self.head, self.threshold, self.trials,
+                                  self.temperature)
+
+    def outputs(self, images: np.ndarray) -> np.ndarray:
+        """Raw network outputs for uint8 images [N, 2, 64, 64] (checked)."""
+        images = np.asarray(images)
+        if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != self.image_shape:
+            raise ValueError(f"images must be uint8 [N, {', '.join(map(str, self.image_shape))}], "
+                             f"got {images.dtype} {list(images.shape)}")
         if len(images) == 0:
-            return np.zeros(0, dtype=np.float64)
+            return np.zeros((0, 2 if self.head == "class" else 1), dtype=np.float64)
         self.model.eval()
-        return batch_prob_high(self.model, images, self.device)
+        return batch_outputs(self.model, images, self.device)
+
+    def expected_score(self, images: np.ndarray) -> np.ndarray:
+        """The expected success rate of each operation (binomial head; the class head can only
+        give P(high), returned instead): float64 [N]."""
+        return heads.expected_score_np(self.outputs(images), self.head, self.temperature)
 
     def is_high(self, images: np.ndarray) -> np.ndarray:
         return self.prob_high(images) >= 0.5

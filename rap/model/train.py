@@ -1,15 +1,28 @@
-"""Training the robustness CNN on a rap-farm dataset (optionally leaving one assembly out).
+"""Training the robustness CNN on a rap-farm dataset (optionally leaving assemblies or families out).
 
-Adam with default parameters, cross-entropy over (not high, high). Class imbalance: the loss is
-class-weighted with inverse class frequencies of the training rows (``w_c = N / (2 N_c)``,
-``class_weighting="balanced"``; ``"none"`` for the plain loss); no resampling, so every row is seen
-once an epoch. Reproducible on the CPU for a given seed (and thread count): the weights'
-initialisation and dropout draw from a forked torch RNG seeded with ``seed`` and the shuffling from
-``numpy.random.default_rng(seed)``; the caller's global RNG state is left as it was.
+Adam (AdamW with ``weight_decay``), learning rate ``lr``, constant or cosine-annealed per step.
+The loss is the head's (``rap.model.heads``): the paper's class head with cross-entropy, class-
+weighted by inverse class frequencies of the training rows (``w_c = N / (2 N_c)``,
+``class_weighting="balanced"``; ``"none"`` for the plain loss), or the binomial head with the
+binomial likelihood of the observed success counts. No resampling, so every row is seen once an
+epoch. Augmentation ``hflip`` mirrors a pair left-right with probability 1/2 (seeded): exact for
+this data, since the motion is normalised downward and the physics (no gravity, noise symmetric
+about the path) is mirror-symmetric.
+
+Calibration (``calibrate``): a seeded ``val_fraction`` of the training assemblies is held out of
+training, and the temperature that minimises the log loss of P(high) on their rows is stored with
+the model (``rap.model.heads.fit_temperature``).
+
+Reproducible on the CPU for a given seed (and thread count): the weights' initialisation and
+dropout draw from a forked torch RNG seeded with ``seed``, shuffling, augmentation and the
+validation split from ``numpy.random.default_rng(seed)``; the caller's global RNG state is left as
+it was. ``store`` (a ``RowStore``) replaces reading the dataset for callers that train many
+models on one dataset.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -17,24 +30,27 @@ from typing import Callable
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 
 from rap import __version__
 from rap.dataset import open_dataset
 from rap.errors import InputError
+from rap.model import heads
 from rap.model.checkpoint import save_checkpoint
 from rap.model.cnn import ModelConfig, RobustnessCNN
-from rap.model.data import (Selection, assembly_summary, data_fingerprint, image_stats, iter_rows,
-                            labels_of, make_batches, select)
+from rap.model.data import (InMemoryBatches, RowStore, Selection, assembly_summary,
+                            data_fingerprint, image_stats, iter_rows, labels_of, make_batches,
+                            select)
 from rap.model.metrics import classification_metrics
-from rap.model.predict import batch_prob_high, resolve_device
+from rap.model.predict import batch_outputs, resolve_device
 
-__all__ = ["TrainConfig", "TrainResult", "train", "predict_selection", "dataset_assemblies"]
+__all__ = ["TrainConfig", "TrainResult", "train", "predict_selection", "dataset_assemblies",
+           "dataset_families"]
 
 
 @dataclass(frozen=True)
 class TrainConfig:
-    """How to train. ``num_threads`` 0 leaves torch's thread count alone."""
+    """How to train. ``num_threads`` 0 leaves torch's thread count alone; ``max_rows`` > 0 trains
+    on a seeded sample of that many training rows (ablations at a reduced budget)."""
 
     epochs: int = 8
     batch_size: int = 64
@@ -42,13 +58,15 @@ class TrainConfig:
     device: str = "auto"
     threshold: float = 0.95
     class_weighting: str = "balanced"
-    # "hflip" (off by default: in leave-one-assembly-out evaluation it did not help, 68.3% vs
-    # 70.2% mean accuracy): mirror each training pair left-right with probability 1/2 (seeded). Exact for this
-    # data: motion is normalised downward and the physics (no gravity, noise symmetric about the
-    # path) is mirror-symmetric, so a mirrored operation is equally robust. "none": off.
-    augment: str = "none"
+    augment: str = "none"  # "hflip" or "none"
     num_threads: int = 0
     max_memory_mb: float = 2048.0
+    lr: float = 1e-3
+    schedule: str = "constant"  # "constant" or "cosine"
+    weight_decay: float = 0.0
+    calibrate: bool = False
+    val_fraction: float = 0.1
+    max_rows: int = 0
 
     def __post_init__(self):
         if self.epochs < 1 or self.batch_size < 1:
@@ -57,6 +75,11 @@ class TrainConfig:
             raise InputError(f"class weighting {self.class_weighting!r}: balanced or none")
         if self.augment not in ("hflip", "none"):
             raise InputError(f"augment {self.augment!r}: hflip or none")
+        if self.schedule not in ("constant", "cosine"):
+            raise InputError(f"schedule {self.schedule!r}: constant or cosine")
+        if not (self.lr > 0 and self.weight_decay >= 0 and 0 < self.val_fraction < 1
+                and self.max_rows >= 0):
+            raise InputError("lr > 0, weight_decay >= 0, 0 < val_fraction < 1, max_rows >= 0")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -73,12 +96,13 @@ class TrainResult:
     image_stats: dict
     metrics: dict
     training: dict
+    calibration: dict | None = None
 
     def save(self, path: str | Path) -> Path:
         return save_checkpoint(path, self.model, threshold=self.threshold,
                                data_fingerprint=self.data_fingerprint, assemblies=self.assemblies,
                                image_stats=self.image_stats, metrics=self.metrics,
-                               training=self.training)
+                               training=self.training, calibration=self.calibration)
 
 
 def dataset_assemblies(root: str | Path) -> list[str]:
@@ -87,17 +111,38 @@ def dataset_assemblies(root: str | Path) -> list[str]:
     return sorted(set(col.unique().to_pylist()))
 
 
+def dataset_families(root: str | Path) -> dict[str, list[str]]:
+    """Family -> sorted assembly names (``custom`` for rows without a family)."""
+    t = open_dataset(root).to_table(columns=["assembly", "family"])
+    out: dict[str, set] = {}
+    for a, f in zip(t.column("assembly").to_pylist(), t.column("family").to_pylist()):
+        out.setdefault(f or "custom", set()).add(a)
+    return {f: sorted(v) for f, v in sorted(out.items())}
+
+
 def predict_selection(model: RobustnessCNN, sel: Selection, device: torch.device,
-                      batch_size: int = 512) -> tuple[np.ndarray, np.ndarray]:
-    """(scores, P(high)) of every row of ``sel``, streamed in dataset order."""
+                      batch_size: int = 512, store: RowStore | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(scores, trials, raw outputs [N, k]) of every row of ``sel``, in dataset order."""
     model.eval()
-    scores, probs = [], []
-    for images, s in iter_rows(sel, batch_size=batch_size):
-        scores.append(s)
-        probs.append(batch_prob_high(model, images, device))
+    scores, trials, outs = [], [], []
+    if store is not None:
+        idx = store.index(sel)
+        for s in range(0, len(idx), batch_size):
+            rows = idx[s:s + batch_size]
+            scores.append(store.scores[rows])
+            trials.append(store.trials[rows])
+            outs.append(batch_outputs(model, store.images[rows], device))
+    else:
+        for images, sc, tr in iter_rows(sel, batch_size=batch_size,
+                                        columns=("score", "trials", "image")):
+            scores.append(sc)
+            trials.append(tr)
+            outs.append(batch_outputs(model, images, device))
     if not scores:
-        return np.zeros(0), np.zeros(0)
-    return np.concatenate(scores), np.concatenate(probs)
+        k = 2 if model.config.head == "class" else 1
+        return np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, k))
+    return np.concatenate(scores), np.concatenate(trials), np.concatenate(outs)
 
 
 class _Threads:
@@ -115,75 +160,179 @@ class _Threads:
         torch.set_num_threads(self.old)
 
 
-def train(root: str | Path, *, holdout: str | None = None, model_config: ModelConfig = ModelConfig(),
-          config: TrainConfig = TrainConfig(),
-          on_step: Callable[[dict], None] | None = None) -> TrainResult:
-    """Train on every assembly of the dataset at ``root`` except ``holdout``; report metrics on it.
+def _split_validation(names: list[str], fraction: float, seed: int) -> list[str]:
+    """A seeded ``fraction`` of the assemblies (at least one, and never all) for calibration."""
+    if len(names) < 3:
+        return []
+    k = min(len(names) - 1, max(1, round(fraction * len(names))))
+    rng = np.random.default_rng([seed, 7])
+    return sorted(rng.choice(sorted(names), size=k, replace=False).tolist())
+
+
+def _lr_at(config: TrainConfig, step: int, total: int) -> float:
+    if config.schedule == "constant":
+        return config.lr
+    return 0.5 * config.lr * (1.0 + math.cos(math.pi * min(step, total) / max(total, 1)))
+
+
+def train(root: str | Path, *, holdout: str | None = None, holdout_family: str | None = None,
+          model_config: ModelConfig = ModelConfig(), config: TrainConfig = TrainConfig(),
+          on_step: Callable[[dict], None] | None = None, store: RowStore | None = None
+          ) -> TrainResult:
+    """Train on the dataset at ``root`` without the assembly ``holdout`` / the family
+    ``holdout_family``; report metrics on what was held out.
 
     ``on_step`` gets after every batch ``{"epoch", "epochs", "step", "steps", "loss", "accuracy"}``
     (running means over the epoch so far).
     """
     root = str(Path(root).resolve())
-    names = dataset_assemblies(root)
+    if store is None and Path(root).is_dir():
+        from rap.dataset import IMAGE_BYTES
+
+        n_all = select(root).count()
+        if n_all * (IMAGE_BYTES + 256) <= config.max_memory_mb * 2 ** 20:
+            store = RowStore(root)  # the whole dataset fits: one read, index-based selections
+        elif config.max_rows:
+            raise InputError(f"--max-rows needs the dataset in memory ({n_all} rows exceed "
+                             f"max_memory_mb {config.max_memory_mb:.0f})")
+    if store is not None:
+        names = sorted(set(store.assembly.tolist()))
+        families = sorted(set(store.family.tolist()))
+    else:
+        names = dataset_assemblies(root)
+        families = list(dataset_families(root)) if holdout_family else []
     if holdout is not None and holdout not in names:
         raise InputError(f"--holdout {holdout}: no such assembly in {root} "
                          f"(has: {', '.join(names)})")
-    sel = select(root, exclude=(holdout,) if holdout else ())
+    if holdout_family is not None and holdout_family not in families:
+        raise InputError(f"--holdout-family {holdout_family}: no such family in {root} "
+                         f"(has: {', '.join(families)})")
+    exclude = (holdout,) if holdout else ()
+    exclude_families = (holdout_family,) if holdout_family else ()
+    sel = select(root, exclude=exclude, exclude_families=exclude_families)
+    val: list[str] = []
+    if config.calibrate:
+        pool = (sorted(set(store.assembly[store.index(sel)].tolist())) if store is not None
+                else sorted(set(assembly_summary_names(sel))))
+        val = _split_validation(pool, config.val_fraction, config.seed)
+        sel = select(root, exclude=exclude + tuple(val), exclude_families=exclude_families)
     device = resolve_device(config.device)
+    head = model_config.head
     t0 = time.perf_counter()
     with _Threads(config.num_threads), \
             torch.random.fork_rng(devices=[device.index or 0] if device.type == "cuda" else []):
         torch.manual_seed(config.seed)
-        data = make_batches(sel, config.threshold, config.batch_size, config.max_memory_mb)
+        rng = np.random.default_rng(config.seed)
+        if store is not None:
+            index = store.index(sel)
+            if config.max_rows and len(index) > config.max_rows:
+                index = np.sort(np.random.default_rng([config.seed, 11]).choice(
+                    index, size=config.max_rows, replace=False))
+            if len(index) == 0:
+                raise InputError(f"{root}: no training rows selected")
+            data = InMemoryBatches.from_store(store, index, config.threshold, config.batch_size)
+        else:
+            index = None
+            data = make_batches(sel, config.threshold, config.batch_size, config.max_memory_mb)
         counts = data.class_counts()
-        if config.class_weighting == "balanced":
+        if config.class_weighting == "balanced" and head == "class":
             weights = [len(data) / (2 * c) if c else 1.0 for c in counts]
         else:
             weights = [1.0, 1.0]
         model = RobustnessCNN(model_config).to(device)
-        opt = torch.optim.Adam(model.parameters())
+        if config.weight_decay:
+            opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+        else:
+            opt = torch.optim.Adam(model.parameters(), lr=config.lr)
         w = torch.tensor(weights, dtype=torch.float32, device=device)
-        rng = np.random.default_rng(config.seed)
         steps = -(-len(data) // config.batch_size)
+        total = steps * config.epochs
         train_seconds = 0.0
+        global_step = 0
         for epoch in range(config.epochs):
             model.train()
             loss_sum, hits, seen = 0.0, 0, 0
             te = time.perf_counter()
-            for step, (images, labels) in enumerate(data.epoch(rng)):
+            for step, (images, labels, successes, trials) in enumerate(data.epoch(rng)):
                 if config.augment == "hflip":
                     flip = rng.random(len(images)) < 0.5
                     images = np.where(flip[:, None, None, None], images[..., ::-1], images)
+                for g in opt.param_groups:
+                    g["lr"] = _lr_at(config, global_step, total)
+                global_step += 1
                 x = torch.from_numpy(np.ascontiguousarray(images)).to(device)
                 y = torch.from_numpy(labels).to(device)
-                logits = model(x)
-                loss = F.cross_entropy(logits, y, weight=w)
+                out = model(x)
+                loss = heads.loss(out, head, labels=y, successes=torch.from_numpy(successes).to(device),
+                                  trials=torch.from_numpy(trials).to(device), class_weights=w)
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
                 loss_sum += loss.item() * len(y)
-                hits += int((logits.argmax(1) == y).sum())
+                with torch.no_grad():
+                    ph = heads.prob_high(out.detach(), head, config.threshold, int(trials[0]))
+                hits += int(((ph >= 0.5).long() == y).sum())
                 seen += len(y)
                 if on_step is not None:
                     on_step({"epoch": epoch + 1, "epochs": config.epochs, "step": step + 1,
                              "steps": steps, "loss": loss_sum / seen, "accuracy": hits / seen})
             train_seconds += time.perf_counter() - te
         model.eval()
+        n_trials = int(np.bincount(data.trials).argmax())
         metrics = {"train": {"loss": loss_sum / seen, "accuracy": hits / seen,
                              "rows": len(data), "high_rows": int(counts[1]),
                              "samples_per_s": len(data) * config.epochs / max(train_seconds, 1e-9)}}
-        if holdout is not None:
-            scores, probs = predict_selection(model, select(root, include=(holdout,)), device)
-            metrics["holdout"] = {"assembly": holdout,
-                                  **classification_metrics(labels_of(scores, config.threshold), probs)}
-    stats_source = getattr(data, "images", None)
-    stats = image_stats((stats_source[i:i + 1024] for i in range(0, len(stats_source), 1024))
-                        if stats_source is not None else (im for im, _ in iter_rows(sel)))
+        calibration = None
+        if val:
+            vsel = select(root, include=tuple(val))
+            scores, trials, outs = predict_selection(model, vsel, device, store=store)
+            temp = heads.fit_temperature(outs, head, labels_of(scores, config.threshold),
+                                         config.threshold, n_trials)
+            calibration = {"temperature": temp, "assemblies": val, "rows": int(len(scores))}
+        temperature = calibration["temperature"] if calibration else 1.0
+        held = [(holdout, select(root, include=(holdout,)))] if holdout else []
+        if holdout_family:
+            held.append((holdout_family, select(root, families=(holdout_family,))))
+        for name, hsel in held:
+            scores, trials, outs = predict_selection(model, hsel, device, store=store)
+            probs = heads.prob_high_np(outs, head, config.threshold, n_trials, temperature)
+            metrics["holdout"] = {"assembly": name, "family": holdout_family,
+                                  **classification_metrics(labels_of(scores, config.threshold),
+                                                           probs, successes_of(scores, trials),
+                                                           trials, config.threshold)}
+            if store is not None:
+                hidx = store.index(hsel)
+                metrics["holdout"]["per_assembly"] = per_assembly_metrics(
+                    store.assembly[hidx], scores, trials, probs, config.threshold)
+    stats = image_stats(data.image_batches())
+    fingerprint = store.fingerprint(index) if store is not None else data_fingerprint(sel)
+    summary = (store.summary(index, config.threshold) if store is not None
+               else assembly_summary(sel, config.threshold))
     training = {"config": config.to_dict(), "dataset": root, "holdout": holdout,
-                "class_counts": [int(c) for c in counts], "class_weights": weights,
-                "device": str(device), "seconds": time.perf_counter() - t0,
-                "code_version": __version__, "torch_version": str(torch.__version__)}
+                "holdout_family": holdout_family, "class_counts": [int(c) for c in counts],
+                "class_weights": weights, "trials": n_trials, "device": str(device),
+                "seconds": time.perf_counter() - t0, "code_version": __version__,
+                "torch_version": str(torch.__version__)}
     return TrainResult(model=model.cpu(), threshold=float(config.threshold),
-                       data_fingerprint=data_fingerprint(sel),
-                       assemblies=assembly_summary(sel, config.threshold), image_stats=stats,
-                       metrics=metrics, training=training)
+                       data_fingerprint=fingerprint, assemblies=summary, image_stats=stats,
+                       metrics=metrics, training=training, calibration=calibration)
+
+
+def assembly_summary_names(sel: Selection) -> list[str]:
+    return [a["name"] for a in assembly_summary(sel, 0.95)]
+
+
+def successes_of(scores: np.ndarray, trials: np.ndarray) -> np.ndarray:
+    return np.rint(np.asarray(scores) * np.asarray(trials)).astype(np.int64)
+
+
+def per_assembly_metrics(names: np.ndarray, scores: np.ndarray, trials: np.ndarray,
+                         probs: np.ndarray, threshold: float) -> dict:
+    """Per assembly of a held-out set: rows, accuracy and the noise ceiling."""
+    out = {}
+    for name in sorted(set(names.tolist())):
+        m = names == name
+        out[name] = classification_metrics(labels_of(scores[m], threshold), probs[m],
+                                           successes_of(scores[m], trials[m]), trials[m],
+                                           threshold, reliability=False)
+    return out

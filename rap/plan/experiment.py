@@ -1,9 +1,10 @@
 """The paper's planning experiment: RAP vs the sim-only baseline vs the optimum vs random.
 
 For each assembly of a labelled dataset, with a CNN that has not seen that assembly (a checkpoint
-``MODELS/holdout-NAME.pt`` when present, else trained here with ``rap.model.train.train(dataset,
-holdout=NAME)`` and saved there), every method plans over the same operation space with the
-dataset's simulator parameters and root seed (so the simulator's scores are the dataset's labels):
+``MODELS/holdout-NAME.pt``, else ``MODELS/holdout-family-FAMILY.pt`` of a model that has not seen
+the assembly's family, else trained here with ``rap.model.train.train(dataset, holdout=NAME)`` and
+saved as the former), every method plans over the same operation space with the dataset's
+simulator parameters and root seed (so the simulator's scores are the dataset's labels):
 
 * each method's search runs with a COLD score cache (an empty ``ScoreCache``): no method looks fast
   because another one simulated its operations before; its wall time is ``PlanResult.seconds``;
@@ -39,6 +40,26 @@ __all__ = ["ExperimentRow", "holdout_model", "run_experiment", "summarise", "wri
 EXPERIMENT_METHODS = ("random", "rap", "sim", "optimal")
 
 
+def method_planner(method: str, samples: int = 50):
+    """The planner of a method name: one of ``EXPERIMENT_METHODS`` or ``rap-kK`` (RAP whose
+    fallback simulates the K candidates with the highest P(high))."""
+    if method.startswith("rap-k"):
+        try:
+            k = int(method[5:])
+        except ValueError:
+            raise InputError(f"method {method!r}: rap-kK needs an integer K") from None
+        if k < 1:
+            raise InputError(f"method {method!r}: K must be >= 1")
+        return make_planner("rap", fallback_k=k)
+    if method not in EXPERIMENT_METHODS:
+        raise InputError(f"unknown method {method!r}: {', '.join(EXPERIMENT_METHODS)} or rap-kK")
+    return make_planner(method, samples=samples)
+
+
+def uses_cnn(method: str) -> bool:
+    return method == "rap" or method.startswith("rap-k")
+
+
 @dataclass
 class ExperimentRow:
     assembly: str
@@ -54,11 +75,16 @@ class ExperimentRow:
 
 
 def holdout_model(dataset: str | Path, name: str, models_dir: str | Path, epochs: int = 8,
-                  log: Callable[[str], None] = print) -> Path:
-    """``models_dir/holdout-NAME.pt``; trained on ``dataset`` minus ``name`` when absent."""
+                  log: Callable[[str], None] = print, family: str | None = None) -> Path:
+    """``models_dir/holdout-NAME.pt``, else ``models_dir/holdout-family-FAMILY.pt``; trained on
+    ``dataset`` minus ``name`` (saved as the former) when neither exists."""
     path = Path(models_dir) / f"holdout-{name}.pt"
     if path.is_file():
         return path
+    if family:
+        fam = Path(models_dir) / f"holdout-family-{family}.pt"
+        if fam.is_file():
+            return fam
     from rap.model.train import TrainConfig, train
 
     log(f"training a CNN without {name} ({epochs} epochs) -> {path}")
@@ -86,29 +112,38 @@ def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: Si
     if trials is not None:
         params = params.with_(trials=int(trials))
     rows: list[ExperimentRow] = []
+    for method in methods:
+        method_planner(method, samples)  # unknown names fail before any work
     for asm in assemblies:
         cnn = None
-        if "rap" in methods:
-            cnn = PredictorCnn.load(holdout_model(dataset, asm.name, models_dir, epochs, log))
+        model_path = None
+        if any(uses_cnn(m) for m in methods):
+            model_path = holdout_model(dataset, asm.name, models_dir, epochs, log,
+                                       family=getattr(asm, "family", None))
+            cnn = PredictorCnn.load(model_path)
         for method in methods:
             problem = PlanningProblem(asm, params, root_seed, "online")
-            scorer = Scorer(sim_backend, cnn if method == "rap" else None, ScoreCache())  # cold
-            if method == "rap":  # warm the CNN and renderer up once (imports, first-call costs)
+            scorer = Scorer(sim_backend, cnn if uses_cnn(method) else None, ScoreCache())  # cold
+            if uses_cnn(method):  # warm the CNN and renderer up once (imports, first-call costs)
                 scorer.cnn.prob_high(problem, list(problem.candidates(problem.whole))[:1])
-            res = make_planner(method, samples=samples).solve(problem, scorer)
+            res = method_planner(method, samples).solve(problem, scorer)
             st = res.stats
             r = st.get("mean_robustness") if method == "random" else res.robustness
+            cnn_method = uses_cnn(method)
             row = ExperimentRow(asm.name, method, r, res.seconds, res.eval_seconds,
                                 res.status.value, int(st.get("sim_run", 0)),
-                                st.get("fallbacks") if method == "rap" else None,
-                                st.get("decisions") if method == "rap" else None,
-                                {k: st[k] for k in ("exhaustive_sequences", "dp_evaluations",
-                                                    "operations", "dp_speedup", "cnn_ops")
-                                 if k in st})
+                                st.get("fallbacks") if cnn_method else None,
+                                st.get("decisions") if cnn_method else None,
+                                {**{k: st[k] for k in ("exhaustive_sequences", "dp_evaluations",
+                                                       "operations", "dp_speedup", "cnn_ops",
+                                                       "fallback_candidates")
+                                    if k in st},
+                                 "family": getattr(asm, "family", None),
+                                 "model": str(model_path) if cnn_method else None})
             rows.append(row)
             log(f"{asm.name:14s} {method:8s} R={'-' if r is None else f'{r:.4f}'} "
                 f"plan {res.seconds:.2f} s, {row.simulations} simulations"
-                + (f", {row.fallbacks}/{row.decisions} fallbacks" if method == "rap" else ""))
+                + (f", {row.fallbacks}/{row.decisions} fallbacks" if cnn_method else ""))
             if res.status is not PlanStatus.FOUND:
                 log(f"  {res.status.value}: {res.message}")
     return rows
@@ -134,6 +169,17 @@ def summarise(rows: Sequence[ExperimentRow]) -> dict:
         out["sim_over_rap_time"] = sim_t / rap_t if rap_t > 0 else float("inf")
         out["rap_minus_sim_robustness"] = (out["methods"]["rap"]["mean_robustness"]
                                            - out["methods"]["sim"]["mean_robustness"])
+    out["versus_sim"] = {}
+    if "sim" in by:
+        sim = out["methods"]["sim"]
+        for m in by:
+            if m == "sim":
+                continue
+            mm = out["methods"][m]
+            out["versus_sim"][m] = {
+                "time_ratio": (sim["mean_seconds"] / mm["mean_seconds"]
+                               if mm["mean_seconds"] > 0 else float("inf")),
+                "robustness_difference": mm["mean_robustness"] - sim["mean_robustness"]}
     if "rap" in by and "optimal" in by:
         out["optimal_minus_rap_robustness"] = (out["methods"]["optimal"]["mean_robustness"]
                                                - out["methods"]["rap"]["mean_robustness"])
@@ -162,7 +208,7 @@ def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
     out.mkdir(parents=True, exist_ok=True)
     summary = summarise(rows)
     names = list(dict.fromkeys(r.assembly for r in rows))
-    methods = [m for m in EXPERIMENT_METHODS if any(r.method == m for r in rows)]
+    methods = list(dict.fromkeys(r.method for r in rows))
     cell = {(r.assembly, r.method): r for r in rows}
 
     def fmt(x, spec=".3f"):
@@ -204,6 +250,16 @@ def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
                      + "; ".join(f"{r.assembly} {r.extra['dp_evaluations']} evaluations vs "
                                  f"{r.extra['exhaustive_sequences']:,} sequences"
                                  for r in opt_rows))
+    if summary.get("versus_sim"):
+        lines += ["", "## Robustness against planning time (means over the assemblies)", "",
+                  "| method | mean R | mean planning s | sim-only time / method time | "
+                  "R - R sim-only | simulations |", "|---|---:|---:|---:|---:|---:|"]
+        for m in methods:
+            v = summary["versus_sim"].get(m, {"time_ratio": 1.0, "robustness_difference": 0.0})
+            sims = sum(r.simulations for r in rows if r.method == m)
+            lines.append(f"| {m} | {fmt(ms[m]['mean_robustness'])} | "
+                         f"{fmt(ms[m]['mean_seconds'], '.2f')} | {v['time_ratio']:.1f} | "
+                         f"{v['robustness_difference']:+.4f} | {sims} |")
     md = out / "results.md"
     md.write_text("\n".join(lines) + "\n", encoding="utf-8")
     js = out / "results.json"
@@ -211,7 +267,8 @@ def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
                               "rows": [r.__dict__ for r in rows]}, indent=2, default=str) + "\n",
                   encoding="utf-8")
 
-    fig, (ax, axt) = plt.subplots(1, 2, figsize=(13, 4.2), gridspec_kw={"width_ratios": [3, 2]})
+    fig, (ax, axt, axp) = plt.subplots(1, 3, figsize=(18, 4.4),
+                                       gridspec_kw={"width_ratios": [3, 2, 2]})
     labels = {"random": "random (mean of 50)", "rap": "RAP", "sim": "sim only", "optimal": "optimal"}
     width = 0.8 / max(1, len(methods))
     for k, m in enumerate(methods):
@@ -230,6 +287,15 @@ def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
     axt.set_yscale("log")
     axt.set_ylabel("planning time (s, log)")
     axt.set_title("Planning time (cold cache)")
+    for m in methods:
+        t, r = ms[m]["mean_seconds"], ms[m]["mean_robustness"]
+        if t == t and r == r:
+            axp.scatter([t], [r], s=30)
+            axp.annotate(m, (t, r), textcoords="offset points", xytext=(4, 3), fontsize=8)
+    axp.set_xscale("log")
+    axp.set_xlabel("mean planning time (s, log)")
+    axp.set_ylabel("mean robustness R")
+    axp.set_title("Robustness against planning time")
     fig.suptitle(title)
     fig.tight_layout()
     png = out / "scores.png"

@@ -4,27 +4,32 @@ Importing torch takes 2-4 s on a 2-core machine, more than planning a 7-part ass
 checkpoint through ``rap.model`` adds pyarrow and pandas. This module reads the same checkpoint file
 (``rap.model.checkpoint``: a ``torch.save`` zip archive of plain values and tensors) with the
 standard library and numpy, and runs the forward pass of ``rap.model.cnn.RobustnessCNN`` in numpy:
-four (4x4 convolution, ReLU, 2x2 max-pooling) stages, three (linear, ReLU) layers (dropout is the
-identity at inference), a final linear layer and the softmax probability of "high".
+four (4x4 convolution, batch normalisation when ``norm="batch"``, ReLU, 2x2 max-pooling) stages,
+three (linear, ReLU) layers (dropout is the identity at inference), a final linear layer, and the
+head of ``rap.model.heads`` with the checkpoint's calibration temperature: the softmax probability
+of "high" (``head="class"``) or the binomial tail P(Bin(n, p) >= k) (``head="binomial"``).
 
 Contract:
 
-* ``load_fast_predictor(path)`` returns a ``FastPredictor`` (``prob_high(images)``, ``threshold``,
-  ``assemblies``, ``image_stats``, ``data_fingerprint``, like ``rap.model.predict.Predictor``), or
-  ``None`` when the file is not exactly the architecture above (other config fields, other layer
-  names or shapes, other pickled objects): the caller then loads it with torch. Nothing in the file
+* ``load_fast_predictor(path)`` returns a ``FastPredictor`` (``prob_high``, ``expected_score``,
+  ``outputs``, ``threshold``, ``assemblies``, ``image_stats``, ``data_fingerprint``, like
+  ``rap.model.predict.Predictor``), or ``None`` when the file is not exactly one of the
+  architectures above (other config fields or values, other layer names or shapes, other pickled
+  objects): the caller then loads it with torch. Nothing in the file
   is executed; the unpickler admits three globals (``OrderedDict``, torch's tensor rebuild
   function and storage types), which it maps to numpy.
 * Results equal torch's to float32 rounding (about 1e-6 in P(high));
   ``tests/plan/test_fastcnn.py`` compares both on the shipped model and on a freshly built network,
   so a change of ``RobustnessCNN`` that this module does not follow fails there.
 
-Cost: about 26 M multiply-adds per image pair (matmuls over NHWC arrays), ~6 ms per image on 2 cores\n(torch: ~4 ms),
-batches of ``CHUNK`` images at a time to bound memory. No torch, no ray, no pyarrow.
+Cost: about 26 M multiply-adds per image pair (matmuls over NHWC arrays), 5-10 ms per image on 2
+cores (torch: 4-7 ms), batches of ``CHUNK`` images at a time to bound memory. No torch, no ray, no
+pyarrow.
 """
 
 from __future__ import annotations
 
+import math
 import pickle
 import zipfile
 from collections import OrderedDict
@@ -40,7 +45,7 @@ _FORMAT = "rap-farm/robustness-cnn"
 _FORMAT_VERSION = 1
 _CONFIG_KEYS = {"in_channels", "image_size", "channels", "kernel_size", "padding", "hidden",
                 "dropout", "n_classes"}
-_CONV = ("features.0", "features.3", "features.6", "features.9")
+_OPTIONAL_KEYS = {"norm", "head"}  # absent in older checkpoints: "none", "class"
 _LINEAR = ("head.1", "head.4", "head.7", "head.10")
 _STORAGES = {"FloatStorage": np.float32, "DoubleStorage": np.float64, "HalfStorage": np.float16,
              "LongStorage": np.int64, "IntStorage": np.int32, "ShortStorage": np.int16,
@@ -147,12 +152,25 @@ class FastPredictor:
         self.config = dict(cfg)
         self.path = path
         self.padding = int(cfg["padding"])
+        self.norm = cfg.get("norm", "none")
+        self.head = cfg.get("head", "class")
         sd = blob["state_dict"]
-        self.convs = [(np.ascontiguousarray(sd[f"{k}.weight"], np.float32),
-                       np.ascontiguousarray(sd[f"{k}.bias"], np.float32)) for k in _CONV]
+        self.convs = []  # (weight, scale or None, shift): conv, then y * scale + shift
+        for conv, bn in _conv_names(self.norm):
+            w = np.ascontiguousarray(sd[f"{conv}.weight"], np.float32)
+            if bn is None:
+                self.convs.append((w, None, np.ascontiguousarray(sd[f"{conv}.bias"], np.float32)))
+            else:  # BatchNorm2d in eval mode (eps 1e-5): (y - mean) / sqrt(var + eps) * g + b
+                scale = (sd[f"{bn}.weight"].astype(np.float32)
+                         / np.sqrt(sd[f"{bn}.running_var"].astype(np.float32) + np.float32(1e-5)))
+                shift = (sd[f"{bn}.bias"].astype(np.float32)
+                         - sd[f"{bn}.running_mean"].astype(np.float32) * scale)
+                self.convs.append((w, scale.astype(np.float32), shift.astype(np.float32)))
         self.linears = [(np.ascontiguousarray(sd[f"{k}.weight"].T, np.float32),
                          np.ascontiguousarray(sd[f"{k}.bias"], np.float32)) for k in _LINEAR]
         self.threshold = float(blob["threshold"])
+        self.temperature = float((blob.get("calibration") or {}).get("temperature", 1.0))
+        self.trials = int((blob.get("training") or {}).get("trials", 100))
         self.data_fingerprint = str(blob["data_fingerprint"])
         self.assemblies = list(blob["assemblies"])
         self.image_stats = dict(blob["image_stats"])
@@ -160,12 +178,17 @@ class FastPredictor:
         size = int(cfg["image_size"])
         self.image_shape = (int(cfg["in_channels"]), size, size)
 
+    def _stage(self, y: np.ndarray, scale, shift) -> np.ndarray:
+        if scale is not None:
+            y *= scale
+        return _relu_pool(y, shift)
+
     def _logits(self, images: np.ndarray) -> np.ndarray:
         x = images.astype(np.float32) / np.float32(255.0)
-        (w0, b0), *rest = self.convs
-        x = _relu_pool(_conv_im2col(x, w0, self.padding), b0)
-        for w, b in rest:
-            x = _relu_pool(_conv_nhwc(x, w, self.padding), b)
+        (w0, s0, b0), *rest = self.convs
+        x = self._stage(_conv_im2col(x, w0, self.padding), s0, b0)
+        for w, sc, b in rest:
+            x = self._stage(_conv_nhwc(x, w, self.padding), sc, b)
         x = x.transpose(0, 3, 1, 2).reshape(len(x), -1)  # torch's Flatten: C, H, W order
         for i, (w, b) in enumerate(self.linears):
             x = x @ w + b
@@ -173,47 +196,118 @@ class FastPredictor:
                 np.maximum(x, 0.0, out=x)
         return x
 
-    def prob_high(self, images: np.ndarray) -> np.ndarray:
-        """P(high) for uint8 [N, 2, 64, 64] -> float64 [N]: softmax of the logits, class 1."""
+    def outputs(self, images: np.ndarray) -> np.ndarray:
+        """The network's raw outputs (float64 [N, 2] or [N, 1]) for uint8 images (checked)."""
         images = np.asarray(images)
         if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != self.image_shape:
             raise ValueError(f"images must be uint8 [N, {', '.join(map(str, self.image_shape))}], "
                              f"got {images.dtype} {list(images.shape)}")
-        out = np.zeros(len(images), dtype=np.float64)
+        width = 2 if self.head == "class" else 1
+        out = np.zeros((len(images), width), dtype=np.float64)
         for i in range(0, len(images), CHUNK):
-            z = self._logits(images[i:i + CHUNK])
-            z = z - z.max(axis=1, keepdims=True)
-            e = np.exp(z)
-            out[i:i + CHUNK] = (e[:, 1] / e.sum(axis=1)).astype(np.float64)
+            out[i:i + CHUNK] = self._logits(images[i:i + CHUNK])
         return out
+
+    def prob_high(self, images: np.ndarray) -> np.ndarray:
+        """P(high) for uint8 [N, 2, 64, 64] -> float64 [N], through the checkpoint's head and
+        temperature as ``rap.model.heads.prob_high`` computes it (float32 result, like torch's)."""
+        z = self.outputs(images)
+        t = self.temperature
+        if self.head == "class":
+            return _softmax_high(z.astype(np.float32) / np.float32(t))
+        p = 1.0 / (1.0 + np.exp(-(z[:, 0] / t)))
+        k = _high_count(self.threshold, self.trials)
+        return _binomial_tail(p, self.trials, k).astype(np.float32).astype(np.float64)
+
+    def expected_score(self, images: np.ndarray) -> np.ndarray:
+        """The expected success rate (binomial head; P(high) for the class head), float64 [N]."""
+        z = self.outputs(images)
+        if self.head == "class":
+            return _softmax_high(z.astype(np.float32) / np.float32(self.temperature))
+        zt = z[:, 0].astype(np.float32) / np.float32(self.temperature)
+        return (np.float32(1.0) / (np.float32(1.0) + np.exp(-zt))).astype(np.float64)
+
+    def is_high(self, images: np.ndarray) -> np.ndarray:
+        return self.prob_high(images) >= 0.5
+
+
+def _softmax_high(z: np.ndarray) -> np.ndarray:
+    z = z - z.max(axis=1, keepdims=True)
+    e = np.exp(z)
+    return (e[:, 1] / e.sum(axis=1)).astype(np.float64)
+
+
+def _high_count(threshold: float, trials: int) -> int:
+    return max(0, math.ceil(threshold * trials - 1e-9))  # rap.model.heads.high_count
+
+
+def _binomial_tail(p: np.ndarray, n: int, k: int) -> np.ndarray:
+    """P(Bin(n, p) >= k) in float64, summed in log space like ``rap.model.heads.binomial_tail``."""
+    if k <= 0:
+        return np.ones_like(p)
+    if k > n:
+        return np.zeros_like(p)
+    p = np.clip(p, 1e-12, 1 - 1e-12)
+    lp, lq = np.log(p), np.log1p(-p)
+    terms = np.stack([math.lgamma(n + 1) - math.lgamma(j + 1) - math.lgamma(n - j + 1)
+                      + j * lp + (n - j) * lq for j in range(k, n + 1)])
+    m = terms.max(axis=0)
+    return np.clip(np.exp(m + np.log(np.exp(terms - m).sum(axis=0))), 0.0, 1.0)
+
+
+def _conv_names(norm: str) -> list[tuple[str, str | None]]:
+    """(convolution, batch norm or None) module names of the four stages."""
+    step = 4 if norm == "batch" else 3
+    return [(f"features.{i * step}", f"features.{i * step + 1}" if norm == "batch" else None)
+            for i in range(4)]
 
 
 def _supported(blob) -> bool:
-    """Exactly the architecture of the module doc, with consistent shapes."""
+    """Exactly the architectures of ``RobustnessCNN`` this module runs, with consistent shapes."""
     try:
         if not isinstance(blob, dict) or blob.get("format") != _FORMAT:
             return False
         if blob.get("format_version") != _FORMAT_VERSION:
             return False
         cfg, sd = blob["config"], blob["state_dict"]
-        if set(cfg) != _CONFIG_KEYS or len(cfg["channels"]) != 4 or len(cfg["hidden"]) != 3:
+        if not _CONFIG_KEYS <= set(cfg) <= _CONFIG_KEYS | _OPTIONAL_KEYS:
             return False
-        want = {f"{k}.{p}" for k in _CONV + _LINEAR for p in ("weight", "bias")}
+        norm, head = cfg.get("norm", "none"), cfg.get("head", "class")
+        if norm not in ("none", "batch") or head not in ("class", "binomial"):
+            return False
+        if len(cfg["channels"]) != 4 or len(cfg["hidden"]) != 3 or int(cfg["n_classes"]) != 2:
+            return False
+        t = (blob.get("calibration") or {}).get("temperature", 1.0)
+        if not (isinstance(t, (int, float)) and t > 0):
+            return False
+        want = {f"{k}.{p}" for k in _LINEAR for p in ("weight", "bias")}
+        for conv, bn in _conv_names(norm):
+            want.add(f"{conv}.weight")
+            if bn is None:
+                want.add(f"{conv}.bias")
+            else:
+                want |= {f"{bn}.{p}" for p in ("weight", "bias", "running_mean", "running_var",
+                                                "num_batches_tracked")}
         if set(sd) != want:
             return False
         k, pad, c_in = int(cfg["kernel_size"]), int(cfg["padding"]), int(cfg["in_channels"])
         side = int(cfg["image_size"])
-        for name, c_out in zip(_CONV, cfg["channels"]):
-            if sd[f"{name}.weight"].shape != (c_out, c_in, k, k) or sd[f"{name}.bias"].shape != (c_out,):
+        for (conv, bn), c_out in zip(_conv_names(norm), cfg["channels"]):
+            if sd[f"{conv}.weight"].shape != (c_out, c_in, k, k):
+                return False
+            vectors = [f"{conv}.bias"] if bn is None else [
+                f"{bn}.{p}" for p in ("weight", "bias", "running_mean", "running_var")]
+            if any(sd[v].shape != (c_out,) for v in vectors):
                 return False
             c_in, side = c_out, (side + 2 * pad - k + 1) // 2
         width = c_in * side * side
-        for name, h in zip(_LINEAR, [*cfg["hidden"], cfg["n_classes"]]):
+        outs = 2 if head == "class" else 1
+        for name, h in zip(_LINEAR, [*cfg["hidden"], outs]):
             if sd[f"{name}.weight"].shape != (h, width) or sd[f"{name}.bias"].shape != (h,):
                 return False
             width = h
-        return int(cfg["n_classes"]) == 2 and all(
-            v.dtype == np.float32 for v in sd.values())
+        return all(v.dtype == np.float32 for name, v in sd.items()
+                   if not name.endswith("num_batches_tracked"))
     except (KeyError, TypeError, ValueError, AttributeError):
         return False
 

@@ -8,7 +8,8 @@ assembly order (children before parents: the disassembly sequence reversed).
 
 * ``RapPlanner`` (the paper's Algorithm 1 with the CNN scorer): the CNN scores every candidate of
   ``S`` in one batch; among those predicted *high* (P(high) >= 0.5) the most confident is taken;
-  when none is, every candidate is simulated and the best taken (a *fallback*).
+  when none is, the candidates are simulated and the best taken (a *fallback*): all of them (the
+  paper's rule, ``fallback_k=None``) or only the ``fallback_k`` with the highest P(high).
 * ``SimPlanner``: every candidate is simulated; the best is taken.
 * ``OptimalPlanner``: the most robust sequence over the same operation space, maximising the product
   of simulated scores by dynamic programming over subassemblies:
@@ -46,7 +47,8 @@ from rap.plan.scorers import Budget, BudgetSpent, Scorer
 from rap.seeds import derive_rng
 
 __all__ = ["Planner", "RapPlanner", "SimPlanner", "OptimalPlanner", "RandomPlanner", "METHODS",
-           "make_planner", "evaluate_steps", "assembly_order", "HIGH_PROBABILITY"]
+           "make_planner", "evaluate_steps", "assembly_order", "dp_choice", "dead_end",
+           "HIGH_PROBABILITY"]
 
 METHODS = ("rap", "sim", "optimal", "random")
 HIGH_PROBABILITY = 0.5  # the CNN's class decision: P(high) >= 0.5 is "high"
@@ -196,12 +198,17 @@ class SimPlanner(_Greedy):
 
 
 class RapPlanner(_Greedy):
-    """RAP: the CNN's most confident *high* candidate, else the simulator's best (fallback)."""
+    """RAP: the CNN's most confident *high* candidate, else the simulator's best among all
+    candidates (``fallback_k=None``, the paper's rule) or among the ``fallback_k`` candidates with
+    the highest P(high) (ties: candidate order)."""
 
     name = "rap"
 
-    def __init__(self, high_probability: float = HIGH_PROBABILITY):
+    def __init__(self, high_probability: float = HIGH_PROBABILITY, fallback_k: int | None = None):
+        if fallback_k is not None and fallback_k < 1:
+            raise ValueError("fallback_k must be >= 1 (None: every candidate)")
         self.high_probability = float(high_probability)
+        self.fallback_k = fallback_k
 
     def _select(self, problem, scorer, cands, stats):
         flat = [op for c in cands for op in c]
@@ -218,18 +225,23 @@ class RapPlanner(_Greedy):
         stats["fallbacks"] = stats.get("fallbacks", 0) + len(fallback)
         stats["fallback_candidates"] = stats.get("fallback_candidates", 0)
         if fallback:
-            fcands = [cands[k] for k in fallback]
+            picks = []  # per fallback subassembly: indices of the candidates to simulate
+            for k in fallback:
+                order = sorted(range(len(cands[k])), key=lambda j: (-probs[k][j], j))
+                picks.append(order if self.fallback_k is None else sorted(order[:self.fallback_k]))
+            fcands = [tuple(cands[k][j] for j in pick) for k, pick in zip(fallback, picks)]
             flat_f = [op for c in fcands for op in c]
             stats["fallback_candidates"] += len(flat_f)
             scores = _split(scorer.scores(problem, flat_f), fcands)
-            for k, c, sc in zip(fallback, fcands, scores):
+            for k, c, sc, pick in zip(fallback, fcands, scores, picks):
                 i = _argmax_first(sc)
                 out[k] = PlanStep.of(c[i], "sim", score=sc[i])
         return out  # type: ignore[return-value]
 
 
 def _reachable(problem: PlanningProblem) -> dict[frozenset, tuple[Operation, ...]]:
-    """Every subassembly reachable from the whole by candidate splits, with its candidates."""
+    """Every subassembly reachable from the whole by candidate splits, with its candidates; an
+    interlocked one (a dead end of the AND/OR graph) has an empty tuple."""
     whole = problem.whole
     seen: dict[frozenset, tuple[Operation, ...]] = {}
     stack = [whole]
@@ -238,12 +250,40 @@ def _reachable(problem: PlanningProblem) -> dict[frozenset, tuple[Operation, ...
         if s in seen or len(s) < 2:
             continue
         c = problem.candidates(s)
-        if not c:
-            raise _Interlocked(s)
         seen[s] = c
         for op in c:
             stack += [op.moving, op.fixed]
     return seen
+
+
+def dp_choice(graph: dict[frozenset, tuple[Operation, ...]],
+              score_of: dict[frozenset, Sequence[float]]) -> tuple[dict, dict]:
+    """``best(S) = max over candidates of r(op) * best(M) * best(F)`` (``best`` of a single part:
+    1; of a dead end: 0) for every subassembly of ``graph``, smallest first; ``arg[S]`` the index
+    of the first maximising candidate. O(operations)."""
+    best: dict[frozenset, float] = {}
+    arg: dict[frozenset, int] = {}
+
+    def b(x):
+        return best.get(x, 0.0) if len(x) >= 2 else 1.0
+
+    for s in sorted(graph, key=len):
+        vals = [r * b(op.moving) * b(op.fixed) for op, r in zip(graph[s], score_of[s])]
+        if not vals:
+            best[s] = 0.0
+            continue
+        i = _argmax_first(vals)
+        best[s], arg[s] = vals[i], i
+    return best, arg
+
+
+def dead_end(graph: dict[frozenset, tuple[Operation, ...]], whole: frozenset) -> frozenset:
+    """The subassembly to blame when no sequence exists: the whole when it has no candidate,
+    else the smallest interlocked subassembly reached."""
+    locked = [s for s, c in graph.items() if not c]
+    if whole in locked or not locked:
+        return whole
+    return min(locked, key=lambda s: (len(s), sorted(s)))
 
 
 class OptimalPlanner(Planner):
@@ -256,28 +296,32 @@ class OptimalPlanner(Planner):
         if len(whole) < 2:
             return []
         graph = _reachable(problem)
+        if not graph[whole]:
+            raise _Interlocked(whole)
         flat = [op for c in graph.values() for op in c]
         scores = iter(scorer.scores(problem, flat))
         score_of = {s: [next(scores) for _ in c] for s, c in graph.items()}
-        best: dict[frozenset, float] = {}
+        best, arg = dp_choice(graph, score_of)
+        if best[whole] <= 0.0:
+            raise _Interlocked(dead_end(graph, whole))
         trees: dict[frozenset, int] = {}
-        arg: dict[frozenset, int] = {}
-        terms = 0
-
-        def b(x):
-            return best[x] if len(x) >= 2 else 1.0
 
         def t(x):
-            return trees[x] if len(x) >= 2 else 1
+            return trees.get(x, 0) if len(x) >= 2 else 1
 
         for s in sorted(graph, key=len):
-            vals = [r * b(op.moving) * b(op.fixed) for op, r in zip(graph[s], score_of[s])]
-            terms += len(vals)
-            i = _argmax_first(vals)
-            best[s], arg[s] = vals[i], i
             trees[s] = sum(t(op.moving) * t(op.fixed) for op in graph[s])
-        choice = {s: PlanStep.of(graph[s][arg[s]], "sim", score=score_of[s][arg[s]]) for s in graph}
+        choice = {}
+        stack = [whole]
+        while stack:
+            s = stack.pop()
+            if len(s) < 2:
+                continue
+            op = graph[s][arg[s]]
+            choice[s] = PlanStep.of(op, "sim", score=score_of[s][arg[s]])
+            stack += [op.moving, op.fixed]
         n_ex = trees[whole]
+        terms = len(flat)
         stats.update(subassemblies=len(graph), operations=len(flat), dp_evaluations=terms,
                      exhaustive_sequences=n_ex,
                      exhaustive_step_evaluations=n_ex * (len(whole) - 1),
@@ -327,10 +371,10 @@ class RandomPlanner(Planner):
         return orders[pick]
 
 
-def make_planner(method: str, *, samples: int = 50) -> Planner:
-    """The planner named ``method`` (one of ``METHODS``)."""
+def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None) -> Planner:
+    """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` for RAP (None: all)."""
     if method == "rap":
-        return RapPlanner()
+        return RapPlanner(fallback_k=fallback_k)
     if method == "sim":
         return SimPlanner()
     if method == "optimal":

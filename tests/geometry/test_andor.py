@@ -40,3 +40,22 @@ def test_single_part_and_budget():
         and_or_graph(build_ndbg(GRID2), "all", max_subassemblies=2)
     with pytest.raises(ValueError):
         and_or_graph(build_ndbg(GRID2), "sometimes")
+
+
+def test_decomposition():
+    from rap.geometry.andor import decomposition
+
+    from .fixtures import FRAMED, GRID3
+
+    assert decomposition(build_ndbg(DOVETAIL)) is None
+    assert decomposition(build_ndbg(FRAMED)) is None
+    assert decomposition(build_ndbg(SINGLE)) == {}
+    tree = decomposition(build_ndbg(GRID3))
+    whole = frozenset(GRID3.ids)
+    assert len(tree) == len(GRID3) - 1 and whole in tree  # a binary tree over the 9 parts
+    for s, p in tree.items():
+        assert p.moving | p.fixed == s and not p.moving & p.fixed
+        for child in (p.moving, p.fixed):
+            assert len(child) == 1 or child in tree
+    # a subassembly that comes apart inside an interlocked whole
+    assert decomposition(build_ndbg(FRAMED_LOOSE), root=["core", "frame"]) is None

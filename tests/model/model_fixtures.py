@@ -40,7 +40,7 @@ def synthetic_image(rng: np.random.Generator, wide: bool, fixed_h: int, fixed_w:
     return img
 
 
-def synthetic_rows(name: str, n: int, seed: int) -> list[dict]:
+def synthetic_rows(name: str, n: int, seed: int, family: str | None = None) -> list[dict]:
     fixed_h, fixed_w = ASSEMBLIES.get(name, (12, 40))
     rng = np.random.default_rng(seed)
     ghash = f"geom-{name}"
@@ -53,17 +53,18 @@ def synthetic_rows(name: str, n: int, seed: int) -> list[dict]:
                      "direction_y": -1.0, "score": score, "successes": int(round(score * 100)),
                      "trials": 100, "image": synthetic_image(rng, wide, fixed_h, fixed_w),
                      "seed": i, "params": json.dumps({"trials": 100}), "code_version": "test",
-                     "node": "test"})
+                     "node": "test", "family": family})
     return rows
 
 
 def write_synthetic(root, names=("alpha", "beta", "gamma"), n: int = 48, shards: int = 2,
-                    seed: int = 0):
-    """A dataset directory with ``n`` rows per assembly in ``shards`` shards each."""
+                    seed: int = 0, families: dict | None = None):
+    """A dataset directory with ``n`` rows per assembly in ``shards`` shards each; ``families``
+    maps assembly names to a family (None: no family, as in schema-1 data)."""
     write_meta(root, DatasetMeta(schema_version=SCHEMA_VERSION, root_seed=seed,
                                  params={"trials": 100}, command="test"))
     for k, name in enumerate(names):
-        rows = synthetic_rows(name, n, seed * 1000 + k)
+        rows = synthetic_rows(name, n, seed * 1000 + k, (families or {}).get(name))
         per = -(-n // shards)
         for s in range(0, n, per):
             write_shard(root, rows_to_table(rows[s:s + per]))

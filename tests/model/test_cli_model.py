@@ -42,3 +42,29 @@ def test_cli_errors_are_one_line_with_status_2(argv, message, tiny_dataset, tmp_
     err = capsys.readouterr().err.strip()
     assert exc.value.code == 2 and message in err and "\n" not in err
     assert not (tmp_path / "m.pt").exists()
+
+
+def test_score_command_prints_and_writes_per_family(family_dataset, tmp_path):
+    model = tmp_path / "m.pt"
+    res = CliRunner().invoke(app, ["train", str(family_dataset), "--out", str(model), "--epochs",
+                                   "1", "--device", "cpu", "--recipe", "paper"])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(app, ["score", str(model), str(family_dataset), "--by", "family",
+                                   "--out", str(tmp_path / "s")])
+    assert res.exit_code == 0, res.output
+    assert "walls" in res.output and "ceiling" in res.output
+    import json
+
+    doc = json.loads((tmp_path / "s" / "score.json").read_text())
+    assert [r["family"] for r in doc["rows"]][-1] == "all" and doc["rows"][-1]["rows"] == 5 * 96
+
+
+def test_evaluate_by_family(family_dataset, tmp_path):
+    out = tmp_path / "rep"
+    res = CliRunner().invoke(app, ["evaluate", str(family_dataset), "--out", str(out), "--epochs",
+                                   "1", "--no-ray", "--device", "cpu", "--no-save-models",
+                                   "--recipe", "paper"])
+    assert res.exit_code == 0, res.output
+    # auto: the reference assembly out, then each generated family out
+    assert "leave-one-assembly-out" in res.output and "leave-one-family-out" in res.output
+    assert "| pegs |" in (out / "table.md").read_text()

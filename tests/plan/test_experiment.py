@@ -38,3 +38,35 @@ def test_experiment_report_with_standins(tmp_path, monkeypatch):
     assert "| triangles |" in md and "| **mean** |" in md and "faster than the sim-only" in md
     with pytest.raises(Exception):
         E.run_experiment(tmp_path, [], sim_backend=sim)  # not a dataset
+
+
+def test_fallback_sweep_methods_and_pareto_table(tmp_path, monkeypatch):
+    ds = tmp_path / "ds"
+    ds.mkdir()
+    write_meta(ds, DatasetMeta(schema_version=SCHEMA_VERSION, root_seed=3,
+                               params=SimParams(trials=10).to_dict(), command="test"))
+    cnn = TableCnn(lambda op: 0.3 * hash_score(op))  # never high: every decision falls back
+    seen = []
+    monkeypatch.setattr(E, "holdout_model",
+                        lambda *a, **k: seen.append(k.get("family")) or tmp_path / "m.pt")
+    monkeypatch.setattr(E.PredictorCnn, "load", classmethod(lambda cls, path, device="cpu": cnn))
+    methods = ["sim", "rap", "rap-k1", "rap-k3"]
+    rows = E.run_experiment(ds, [six("triangles")], sim_backend=HashSim(), methods=methods,
+                            log=lambda s: None)
+    by = {r.method: r for r in rows}
+    assert by["rap"].robustness == pytest.approx(by["sim"].robustness)  # k = all: the baseline
+    cands = {m: by[m].extra["fallback_candidates"] for m in ("rap", "rap-k1", "rap-k3")}
+    assert cands["rap-k1"] < cands["rap-k3"] < cands["rap"]
+    assert seen == ["reference"]  # the family is passed on, for family hold-out models
+    md = E.write_report(rows, tmp_path / "r", "sweep")[0].read_text()
+    assert "## Robustness against planning time" in md and "| rap-k3 |" in md
+    with pytest.raises(Exception, match="rap-kK"):
+        E.run_experiment(ds, [six("triangles")], sim_backend=HashSim(), methods=["rap-kx"])
+
+
+def test_family_holdout_model_is_found(tmp_path):
+    (tmp_path / "holdout-family-walls.pt").write_bytes(b"x")
+    assert E.holdout_model("ds", "walls-s3", tmp_path, family="walls").name == \
+        "holdout-family-walls.pt"
+    (tmp_path / "holdout-walls-s3.pt").write_bytes(b"x")
+    assert E.holdout_model("ds", "walls-s3", tmp_path, family="walls").name == "holdout-walls-s3.pt"

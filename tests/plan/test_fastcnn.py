@@ -38,28 +38,44 @@ def test_shipped_model_runs_without_torch_and_agrees_with_torch():
     assert fast.prob_high(images[:0]).shape == (0,)
 
 
-def test_a_fresh_network_of_the_current_architecture_agrees(tmp_path):
-    """Catches a change of RobustnessCNN that the numpy forward pass does not follow."""
+@pytest.mark.parametrize("norm,head,temperature", [("none", "class", 1.0), ("batch", "class", 1.7),
+                                                    ("none", "binomial", 1.0),
+                                                    ("batch", "binomial", 0.8)])
+def test_a_fresh_network_of_the_current_architecture_agrees(tmp_path, norm, head, temperature):
+    """Catches a change of RobustnessCNN or of the heads that the numpy forward pass does not
+    follow: every configuration the model layer offers, with a calibration temperature."""
     torch = pytest.importorskip("torch")
     from rap.model.checkpoint import save_checkpoint
     from rap.model.cnn import ModelConfig, RobustnessCNN
     from rap.model.predict import Predictor
 
     torch.manual_seed(3)
-    model = RobustnessCNN(ModelConfig())
-    with torch.no_grad():  # larger weights than the init, so the logits vary a lot between inputs
+    model = RobustnessCNN(ModelConfig(norm=norm, head=head))
+    with torch.no_grad():  # larger weights than the init, and batch statistics of some training
         for p in model.parameters():
-            p.mul_(3.0)
+            p.mul_(1.6)
+        for m in model.modules():
+            if isinstance(m, torch.nn.BatchNorm2d):
+                m.running_mean.uniform_(-0.5, 0.5)
+                m.running_var.uniform_(0.5, 2.0)
+        if head == "binomial":  # per-trial success rates around 0.9: P(high) away from 0 and 1
+            model.head[-1].bias.fill_(2.2)
+    model.eval()
     path = save_checkpoint(tmp_path / "m.pt", model, threshold=0.9, data_fingerprint="x",
-                           assemblies=[], image_stats={}, metrics={}, training={})
+                           assemblies=[], image_stats={}, metrics={}, training={"trials": 40},
+                           calibration={"temperature": temperature})
     fast = load_fast_predictor(path)
     assert fast is not None
     rng = np.random.default_rng(0)
     images = (rng.random((20, 2, 64, 64)) < 0.4).astype(np.uint8) * rng.integers(
         0, 256, (20, 2, 64, 64), dtype=np.uint8)
-    p_fast, p_torch = fast.prob_high(images), Predictor.load(path).prob_high(images)
+    slow = Predictor.load(path)
+    z_fast, z_torch = fast.outputs(images), slow.outputs(images)
+    np.testing.assert_allclose(z_fast, z_torch, rtol=0, atol=1e-5 * np.abs(z_torch).max())
+    p_fast, p_torch = fast.prob_high(images), slow.prob_high(images)
     assert p_torch.std() > 1e-3
     np.testing.assert_allclose(p_fast, p_torch, atol=1e-5)
+    np.testing.assert_allclose(fast.expected_score(images), slow.expected_score(images), atol=1e-5)
 
 
 def test_anything_but_the_known_architecture_is_left_to_torch(tmp_path):

@@ -71,6 +71,27 @@ def test_rap_without_high_predictions_falls_back_to_the_sim_baseline():
     assert all(s.source == "sim" and s.confidence is None for s in rap.steps)
 
 
+def test_rap_fallback_k_all_is_the_papers_rule_and_k_limits_the_simulations():
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    low = lambda op: 0.4 * hash_score(op)  # noqa: E731: never high, but a ranking
+    paper = RapPlanner().solve(problem, fake_scorer(TableCnn(low)))
+    every = RapPlanner(fallback_k=10 ** 6).solve(problem, fake_scorer(TableCnn(low)))
+    assert [s.to_json() for s in every.steps] == [s.to_json() for s in paper.steps]
+    assert every.stats["fallback_candidates"] == paper.stats["fallback_candidates"]
+    for k in (1, 2, 3):
+        r = RapPlanner(fallback_k=k).solve(problem, fake_scorer(TableCnn(low)))
+        assert r.status is PlanStatus.FOUND and check_plan(problem.assembly, r.steps) == []
+        assert r.stats["fallbacks"] == r.stats["decisions"]
+        assert r.stats["fallback_candidates"] <= k * r.stats["decisions"]  # k per decision
+        assert r.stats["fallback_candidates"] < paper.stats["fallback_candidates"]
+    one = RapPlanner(fallback_k=1).solve(problem, fake_scorer(TableCnn(low)))
+    whole = problem.candidates(problem.whole)
+    top = max(range(len(whole)), key=lambda j: (low(whole[j]), -j))
+    assert frozenset(one.steps[-1].moving) == whole[top].moving  # k = 1: the model's choice
+    with pytest.raises(ValueError):
+        RapPlanner(fallback_k=0)
+
+
 def test_rap_takes_the_most_confident_high_candidate_without_simulating():
     problem = PlanningProblem(six("triangles"), PARAMS)
     cnn = TableCnn(lambda op: 0.5 + 0.4 * hash_score(op))  # every candidate "high"

@@ -1,0 +1,44 @@
+"""Command-line options shared by ``train`` and ``evaluate``: a recipe and its overrides.
+
+Each ``*_OPTION`` is a typer option object used as a parameter default in both commands;
+``resolve`` turns the values into ``(ModelConfig, TrainConfig)`` (``rap.model.recipes``).
+"""
+
+from __future__ import annotations
+
+import typer
+
+__all__ = ["RECIPE_OPTION", "HEAD_OPTION", "NORM_OPTION", "AUGMENT_OPTION", "CALIBRATE_OPTION",
+           "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "resolve", "describe"]
+
+RECIPE_OPTION = typer.Option(
+    "robust", "--recipe",
+    help="Network + training recipe: 'robust' (batch norm, binomial head on the success counts, "
+         "mirror augmentation, cosine schedule, calibrated) or 'paper' (the paper's CNN and "
+         "class-weighted cross-entropy). The options below override it.")
+HEAD_OPTION = typer.Option(None, "--head", help="Override: class or binomial.")
+NORM_OPTION = typer.Option(None, "--norm", help="Override: none or batch.")
+AUGMENT_OPTION = typer.Option(None, "--augment", help="Override: hflip or none.")
+CALIBRATE_OPTION = typer.Option(None, "--calibrate/--no-calibrate",
+                                help="Override: fit a temperature on held-out assemblies.")
+LR_OPTION = typer.Option(None, "--lr", help="Override: learning rate (Adam).")
+SCHEDULE_OPTION = typer.Option(None, "--schedule", help="Override: constant or cosine.")
+MAX_ROWS_OPTION = typer.Option(None, "--max-rows", min=0,
+                               help="Override: train on a seeded sample of this many rows.")
+
+
+def resolve(recipe_name: str, **fields):
+    """(ModelConfig, TrainConfig) of the recipe with every non-None field overridden."""
+    from rap.model.recipes import recipe
+
+    return recipe(recipe_name, **fields)
+
+
+def describe(model_config, config) -> str:
+    from rap.model.cnn import RobustnessCNN
+
+    return (f"{RobustnessCNN(model_config).num_parameters():,} parameters, channels "
+            f"{list(model_config.channels)}, hidden {list(model_config.hidden)}, norm "
+            f"{model_config.norm}, head {model_config.head}; {config.epochs} epochs, lr "
+            f"{config.lr} ({config.schedule}), augment {config.augment}, calibrate "
+            f"{config.calibrate}" + (f", {config.max_rows} rows" if config.max_rows else ""))
