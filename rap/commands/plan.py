@@ -27,11 +27,12 @@ from pathlib import Path
 import typer
 
 from rap.errors import EXIT_INFEASIBLE, InputError, RapError
+from rap.plan.planners import METHODS  # rap, sim, optimal, random, search
 
 __all__ = ["register", "plan_command", "InfeasiblePlan", "default_model_path", "print_result",
            "write_plan_json", "resolve_model"]
 
-METHODS = ("rap", "sim", "optimal", "random")
+CNN_METHODS = ("rap", "search")  # the methods that need a model
 
 
 class InfeasiblePlan(RapError):
@@ -50,7 +51,7 @@ def default_model_path() -> Path:
 def resolve_model(model: Path | None, method: str, echo) -> tuple[str | None, str]:
     """(checkpoint path or None, method to use). Without ``--model`` the shipped default model is
     used; when it is absent, say so and fall back to the simulator-only method."""
-    if method != "rap":
+    if method not in CNN_METHODS:
         return None, method
     if model is not None:
         if not Path(model).is_file():
@@ -123,6 +124,11 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
     if result.method == "rap":
         facts.append(f"simulator fallbacks: {st.get('fallbacks', 0)} of {st.get('decisions', 0)} "
                      f"decisions")
+    if result.method == "search":
+        how = (f"exact DP over {st.get('operations', '?')} operations" if st.get("search") == "exact"
+               else f"beam of width {st.get('beam_width')}")
+        facts.append(f"search: {how}, {st.get('predicted_operations', 0)} operations scored by "
+                     f"the model, {st.get('search_simulations', 0)} simulated while planning")
     if result.method == "optimal" and "subassemblies" in st:
         facts.append(f"DP over {st['subassemblies']} subassemblies / {st['operations']} operations "
                      f"vs. {st['exhaustive_sequences']:,} sequences for an exhaustive search "
@@ -147,7 +153,9 @@ def _local_workers(workers: int | None) -> int:
 def plan_command(
     assembly: Path = typer.Argument(..., help="Assembly JSON file."),
     model: Path = typer.Option(None, "--model", help="CNN checkpoint [default: the shipped model]."),
-    method: str = typer.Option("rap", "--method", help="rap | sim | optimal | random."),
+    method: str = typer.Option("rap", "--method", help="rap | sim | optimal | random | search "
+                               "(search: the best product of the model's scores over every "
+                               "sequence, dynamic programming or a beam)."),
     out: Path = typer.Option(None, "--out", "-o", help="Write the plan as JSON here."),
     picture: Path = typer.Option(None, "--picture", help="Storyboard of the plan (.png or .svg)."),
     address: str = typer.Option(None, "--address", help="Plan on this Ray cluster (HOST:PORT or "

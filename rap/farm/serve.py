@@ -223,9 +223,9 @@ class PlanningApp:
             assembly, method, seed = parse_plan_request(
                 bytes(body), max_parts=self.config.max_parts,
                 max_optimal_parts=self.config.max_optimal_parts)
-            if method == "rap" and self.service.cnn is None:
-                raise BadRequest(400, "method 'rap': this service has no CNN model; ask for "
-                                      "method sim")
+            if method in ("rap", "search") and self.service.cnn is None:
+                raise BadRequest(400, f"method {method!r}: this service has no CNN model; ask "
+                                      f"for method sim")
         except BadRequest as exc:
             return _error(exc.status, exc.message)
         loop = asyncio.get_running_loop()

@@ -50,7 +50,7 @@ __all__ = ["Planner", "RapPlanner", "SimPlanner", "OptimalPlanner", "RandomPlann
            "make_planner", "evaluate_steps", "assembly_order", "dp_choice", "dead_end",
            "HIGH_PROBABILITY"]
 
-METHODS = ("rap", "sim", "optimal", "random")
+METHODS = ("rap", "sim", "optimal", "random", "search")
 HIGH_PROBABILITY = 0.5  # the CNN's class decision: P(high) >= 0.5 is "high"
 
 
@@ -371,10 +371,17 @@ class RandomPlanner(Planner):
         return orders[pick]
 
 
-def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None) -> Planner:
-    """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` for RAP (None: all)."""
+def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None,
+                 beam_width: int | None = None, simulations: int | None = None) -> Planner:
+    """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` for RAP (None: all);
+    ``beam_width`` and ``simulations`` for search (None: its defaults)."""
     if method == "rap":
         return RapPlanner(fallback_k=fallback_k)
+    if method == "search":
+        from rap.plan.search import DEFAULT_BEAM, SearchPlanner
+
+        return SearchPlanner(beam_width=beam_width or DEFAULT_BEAM,
+                             simulations=simulations or 0)
     if method == "sim":
         return SimPlanner()
     if method == "optimal":

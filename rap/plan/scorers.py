@@ -6,7 +6,9 @@ A planner sees one object, ``Scorer``, with two questions:
   Scores already known are taken from the ``ScoreCache`` (content key + root seed, see
   ``rap.plan.cache``); the rest go to the simulator backend in ONE call, so a backend that runs
   them in parallel (the Ray ``SimPool``, ``rap.farm.service.PoolSimulator``) sees the whole batch.
-* ``prob_high(problem, ops) -> float [N]``: the CNN's P(high) for each operation, one batch.
+* ``prob_high(problem, ops) -> float [N]``: the CNN's P(high) for each operation, one batch;
+  ``expected_scores(problem, ops)``: its expected success rate (the binomial head's calibrated
+  score; what search multiplies).
 
 Simulator backends (``SimBackend``: ``simulate_many(problem, ops) -> list[CachedScore]``):
 ``LocalSimulator`` runs ``rap.sim.simulator.simulate`` on this machine with the per-operation seed
@@ -59,6 +61,8 @@ class SimBackend(Protocol):
 
 class CnnBackend(Protocol):
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
+
+    def expected_score(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
 
 
 class BudgetSpent(Exception):
@@ -187,6 +191,15 @@ class PredictorCnn:
         with self._lock:
             return np.asarray(self.predictor.prob_high(images), dtype=np.float64)
 
+    def expected_score(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        """The model's expected success rate of each operation (binomial head; P(high) for the
+        class head, the best it knows)."""
+        t = time.perf_counter()
+        images = self.images(problem, ops)
+        self.render_seconds += time.perf_counter() - t
+        with self._lock:
+            return np.asarray(self.predictor.expected_score(images), dtype=np.float64)
+
 
 @dataclass
 class ScorerStats:
@@ -258,11 +271,18 @@ class Scorer:
 
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The CNN's P(high) for each operation, one batch. Raises when no CNN is loaded."""
+        return self._cnn_call("prob_high", problem, ops)
+
+    def expected_scores(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        """The CNN's expected score (success rate) for each operation, one batch."""
+        return self._cnn_call("expected_score", problem, ops)
+
+    def _cnn_call(self, what: str, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         if self.cnn is None:
-            raise RuntimeError("this scorer has no CNN (load a model for method rap)")
+            raise RuntimeError("this scorer has no CNN (load a model for methods rap and search)")
         self._check_time()
         t = time.perf_counter()
-        p = np.asarray(self.cnn.prob_high(problem, list(ops)), dtype=np.float64)
+        p = np.asarray(getattr(self.cnn, what)(problem, list(ops)), dtype=np.float64)
         self.stats.cnn_seconds += time.perf_counter() - t
         self.stats.cnn_batches += 1
         self.stats.cnn_ops += len(ops)

@@ -2,7 +2,8 @@
 
 * ``HashSim``: a fast deterministic fake simulator: the score of an operation is a function of its
   content key (so equal operations score equally in every process), in steps of 1/``trials``.
-* ``TableCnn``: a fake CNN returning P(high) from a function of the operation.
+* ``TableCnn``: a fake CNN returning P(high) from a function of the operation, and an expected
+  score from another (the same one by default).
 """
 
 from __future__ import annotations
@@ -38,10 +39,16 @@ class HashSim:
 
 
 class TableCnn:
-    def __init__(self, fn):
+    def __init__(self, fn, score_fn=None):
         self.fn = fn
+        self.score_fn = score_fn or fn
         self.batches = []
+        self.scored = 0
 
     def prob_high(self, problem, ops):
         self.batches.append(len(ops))
         return np.array([self.fn(op) for op in ops], dtype=np.float64)
+
+    def expected_score(self, problem, ops):
+        self.scored += len(ops)
+        return np.array([self.score_fn(op) for op in ops], dtype=np.float64)

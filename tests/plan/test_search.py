@@ -1,0 +1,96 @@
+"""SearchPlanner: the optimum with a perfect model, the beam beyond the budget, valid plans,
+simulations spent only as asked."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rap.plan.cache import ScoreCache
+from rap.plan.planners import OptimalPlanner
+from rap.plan.problem import PlanningProblem
+from rap.plan.result import PlanStatus
+from rap.plan.scorers import Scorer
+from rap.plan.search import SearchPlanner
+from rap.plan.validate import check_plan
+from rap.sim.params import SimParams
+
+from tests.plan.cases import FRAMED_HOLE, SIX, memory, six
+from tests.plan.standins import HashSim, TableCnn, hash_score
+
+PARAMS = SimParams(trials=10)
+
+
+def scorer(cnn):
+    return Scorer(HashSim(), cnn, ScoreCache())
+
+
+def tree(result):
+    return [(s.moving, s.fixed, s.direction) for s in result.steps]
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_a_perfect_model_gives_exactly_the_optimum(name):
+    problem = PlanningProblem(six(name), PARAMS)
+    perfect = TableCnn(lambda op: 0.5, score_fn=hash_score)  # the simulator's own scores
+    found = SearchPlanner().solve(problem, scorer(perfect))
+    best = OptimalPlanner().solve(problem, scorer(None))
+    assert found.status is PlanStatus.FOUND and found.stats["search"] == "exact"
+    assert tree(found) == tree(best)
+    assert found.robustness == pytest.approx(best.robustness)
+    assert found.stats["predicted_robustness"] == pytest.approx(best.robustness)
+    assert found.stats["search_simulations"] == 0  # no simulation while planning by default
+    assert all(s.source == "cnn" for s in found.steps)
+    assert check_plan(problem.assembly, found.steps) == []
+
+
+def test_simulations_where_they_decide_fix_a_wrong_model():
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    best = OptimalPlanner().solve(problem, scorer(None))
+    rng = np.random.default_rng(0)
+    noise = {}
+
+    def noisy(op):  # the truth plus large, fixed noise per operation
+        k = op.key("noise")
+        if k not in noise:
+            noise[k] = float(rng.normal(0, 0.08))
+        return min(1.0, max(0.0, hash_score(op) + noise[k]))
+
+    blind = SearchPlanner().solve(problem, scorer(TableCnn(lambda op: 0.5, noisy)))
+    budget = 60
+    sure = SearchPlanner(simulations=budget).solve(problem, scorer(TableCnn(lambda op: 0.5, noisy)))
+    assert sure.stats["search_simulations"] <= budget
+    assert sure.robustness >= blind.robustness - 1e-12
+    assert sure.robustness <= best.robustness + 1e-12
+    assert any(s.source == "sim" for s in sure.steps)
+    assert check_plan(problem.assembly, sure.steps) == []
+
+
+@pytest.mark.parametrize("width", [1, 3, 8])
+def test_beam_engages_beyond_the_budget_and_plans_validly(width):
+    gen = pytest.importorskip("rap.geometry.generate")
+    asm = gen.random_tiling(12, np.random.default_rng(5))
+    problem = PlanningProblem(asm, PARAMS)
+    cnn = TableCnn(lambda op: 0.5, score_fn=hash_score)
+    r = SearchPlanner(beam_width=width, max_operations=50).solve(problem, scorer(cnn))
+    assert r.status is PlanStatus.FOUND and r.stats["search"] == "beam"
+    assert r.stats["beam_width"] == width and len(r.steps) == len(asm) - 1
+    assert check_plan(asm, r.steps) == []
+    exact = SearchPlanner().solve(problem, scorer(TableCnn(lambda op: 0.5, score_fn=hash_score)))
+    assert r.stats["predicted_robustness"] <= exact.stats["predicted_robustness"] + 1e-12
+
+
+def test_wider_beams_never_do_worse_on_the_model_score():
+    gen = pytest.importorskip("rap.geometry.generate")
+    problem = PlanningProblem(gen.random_tiling(10, np.random.default_rng(2)), PARAMS)
+    got = [SearchPlanner(beam_width=w, max_operations=1).solve(
+        problem, scorer(TableCnn(lambda op: 0.5, score_fn=hash_score))).stats["predicted_robustness"]
+           for w in (1, 2, 4, 16)]
+    assert got[-1] >= got[0] - 1e-12
+
+
+def test_interlocked_assembly_is_infeasible():
+    problem = PlanningProblem(memory(FRAMED_HOLE), PARAMS)
+    for planner in (SearchPlanner(), SearchPlanner(max_operations=1)):
+        r = planner.solve(problem, scorer(TableCnn(lambda op: 0.5)))
+        assert r.status is PlanStatus.INFEASIBLE and r.interlocked
