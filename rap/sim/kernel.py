@@ -27,6 +27,8 @@ Cost: O(live trials) float operations per control step on top of Chipmunk's own 
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import numba
 from llvmlite import ir
@@ -86,13 +88,28 @@ def _call_each(typingctx, fn, space, func, data):
     return sig, codegen
 
 
+_LOCAL = threading.local()
+
+
+def _buffers():
+    """This thread's (get, set, ids) ``pymunk.batch.Buffer`` objects, made once and reused:
+    pymunk never frees a Buffer's C arrays, so a Buffer per simulation would leak ~100 KB each."""
+    bufs = getattr(_LOCAL, "buffers", None)
+    if bufs is None:
+        import pymunk.batch as pb
+
+        bufs = _LOCAL.buffers = (pb.Buffer(), pb.Buffer(), pb.Buffer())
+    return bufs
+
+
 class ChipmunkApi:
     """Addresses of the C functions and batch buffers that the compiled loop uses for one space.
 
     ``get`` holds, after ``refresh_get``, a float64 view [bodies, 6] (x, y, angle, vx, vy, omega)
     of the getter's buffer (owned by pymunk's ``Buffer``); ``sarr`` [bodies, 3] (fx, fy, torque)
     is the setter's buffer (ours). ``gnum``/``snum`` are int32 views of the two arrays' ``num``
-    counters, which the loop resets before each pass.
+    counters, which the loop resets before each pass. The pymunk buffers are the thread's own
+    (``_buffers``): one ``ChipmunkApi`` in use per thread at a time.
     """
 
     def __init__(self, space, bodies: int):
@@ -108,11 +125,11 @@ class ChipmunkApi:
         self.bodies = bodies
         fields_get = (pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
                       | pb.BodyFields.ANGULAR_VELOCITY)
-        self._gbuf = pb.Buffer()
-        pb.get_space_bodies(space, fields_get, self._gbuf)  # sizes pymunk's own array once
-        self._sbuf = pb.Buffer()
+        self._gbuf, self._sbuf, self._ibuf = _buffers()
+        self._gbuf.clear()
+        pb.get_space_bodies(space, fields_get, self._gbuf)  # grows pymunk's own array as needed
         self.sarr = np.zeros((bodies, 3))
-        self._sbuf.set_float_buf(self.sarr)
+        self._sbuf.set_float_buf(self.sarr)  # points the set array at ours (kept alive by it)
         self._gdata = ffi.new("pmBatchedData *")
         self._gdata.fields = fields_get.value
         self._gdata.floatArray = self._gbuf._float_arr
@@ -142,9 +159,9 @@ class ChipmunkApi:
     def body_ids(self) -> np.ndarray:
         """Body ids in the iterators' order (after removals, Chipmunk swaps bodies around)."""
         pb = self._pb
-        buf = pb.Buffer()
-        pb.get_space_bodies(self._space, pb.BodyFields.BODY_ID, buf)
-        return np.frombuffer(buf.int_buf(), dtype=np.uintp).copy()
+        self._ibuf.clear()
+        pb.get_space_bodies(self._space, pb.BodyFields.BODY_ID, self._ibuf)
+        return np.frombuffer(self._ibuf.int_buf(), dtype=np.uintp).copy()
 
 
 @numba.njit(cache=True, nogil=True)
