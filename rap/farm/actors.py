@@ -39,11 +39,14 @@ class Backend:
     """Import paths (``module:attr``) of the simulator and the renderer used by the workers.
 
     ``simulate(assembly, operation, params, rng) -> SimResult(successes, trials, score, seconds)``;
-    ``render(assembly, operation, params=..., size=...) -> uint8 [2, size, size]``.
+    ``render(assembly, operation, params=..., size=...) -> uint8 [2, size, size]``;
+    ``warm_up() -> seconds`` runs once when the actor starts (empty: none), so that loading the
+    compiled simulator is not charged to the first batch.
     """
 
     simulate: str = "rap.sim.simulator:simulate"
     render: str = "rap.render.images:render_pair"
+    warm_up: str = "rap.sim.simulator:warm_up"
 
 
 def resolve(path: str) -> Callable:
@@ -100,10 +103,11 @@ class SimWorker:
         self._assemblies: OrderedDict[str, Any] = OrderedDict()
         self._node = node_label()
         self._pid = os.getpid()
+        self._warm_s = resolve(backend.warm_up)() if getattr(backend, "warm_up", "") else 0.0
 
     def info(self) -> dict:
         """Where this worker runs (also a readiness probe)."""
-        return {"node": self._node, "pid": self._pid}
+        return {"node": self._node, "pid": self._pid, "warm_up_s": self._warm_s}
 
     def _functions(self, images: bool):
         if self._simulate is None:

@@ -44,7 +44,8 @@ from rap.sim.params import DEFAULT_PARAMS, SimParams
 from rap.sim.placement import placement
 from rap.sim.shapes import assembly_pieces
 
-__all__ = ["SimResult", "simulate", "Scene", "build_scene", "run_trials", "RunInfo", "Trajectories"]
+__all__ = ["SimResult", "simulate", "Scene", "build_scene", "run_trials", "RunInfo", "Trajectories",
+           "warm_up"]
 
 _NOISE_CHUNK = 128  # control steps of noise drawn at once: one (chunk, trials) block, fixed order
 _SLOW_CHECK = 8  # control steps between checks for hopeless (far off / stuck) trials
@@ -330,3 +331,19 @@ def simulate(assembly: Assembly, operation: Operation, params: SimParams | None 
     return SimResult(successes=succ, trials=p.trials, score=succ / p.trials,
                      seconds=time.perf_counter() - t0,
                      outcomes=tuple(int(o == 1) for o in outcome), body_steps=info.body_steps)
+
+
+def warm_up() -> float:
+    """Load (or compile) the compiled control loop once, on a two-square operation with two
+    trials, so that a worker's first real operation is not slowed by it. Returns the seconds."""
+    from fractions import Fraction
+
+    from rap.assembly import Part
+
+    t0 = time.perf_counter()
+    sq = [(0, 0), (10, 0), (10, 10), (0, 10)]
+    a = Assembly("warm-up", (Part("a", tuple((Fraction(x), Fraction(y)) for x, y in sq)),
+                             Part("b", tuple((Fraction(x + 10), Fraction(y)) for x, y in sq))))
+    op = Operation(frozenset({"b"}), frozenset({"a"}), (-1.0, 0.0))
+    simulate(a, op, DEFAULT_PARAMS.with_(trials=2), np.random.default_rng(0))
+    return time.perf_counter() - t0

@@ -32,7 +32,8 @@ HAVE_GEOMETRY = all(importlib.util.find_spec(f"rap.geometry.{m}") is not None
                     for m in ("ndbg", "partitions", "andor"))
 
 #: fast fake physics + fake images: for the farm's own logic (order, retries, resume)
-FAKE = Backend(simulate="tests.farm.standin:simulate", render="tests.farm.standin:render")
+FAKE = Backend(simulate="tests.farm.standin:simulate", render="tests.farm.standin:render",
+               warm_up="")
 #: the real simulator (few trials) with the real renderer when it exists
 REAL = Backend(simulate="rap.sim.simulator:simulate",
                render="rap.render.images:render_pair" if HAVE_RENDER else "tests.farm.standin:render")
