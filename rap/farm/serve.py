@@ -11,7 +11,7 @@ Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``)
 * ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
   actor has started (before that, Serve answers 503 or the connection is refused).
 * ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
-  "random" (default "rap"), "seed": <int> (optional)}``. 200 with exactly the document that
+  "random"|"search" (default "rap"), "seed": <int> (optional)}``. 200 with exactly the document that
   ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
   ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
   or ``"feasible": null`` when the request's budget (simulations, seconds) ran out. The header
