@@ -72,8 +72,12 @@ def train_command(
     console = make_console(stderr=True)
     bar, on_step = progress_bar(console)
     with bar:
+        import shlex
+        import sys
+
         result = train(dataset, holdout=holdout, holdout_family=holdout_family,
-                       model_config=model_config, config=config, on_step=on_step)
+                       model_config=model_config, config=config, on_step=on_step,
+                       command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]))
     path = result.save(out)
     tr = result.metrics["train"]
     t = result.training

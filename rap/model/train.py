@@ -177,13 +177,14 @@ def _lr_at(config: TrainConfig, step: int, total: int) -> float:
 
 def train(root: str | Path, *, holdout: str | None = None, holdout_family: str | None = None,
           model_config: ModelConfig = ModelConfig(), config: TrainConfig = TrainConfig(),
-          on_step: Callable[[dict], None] | None = None, store: RowStore | None = None
-          ) -> TrainResult:
+          on_step: Callable[[dict], None] | None = None, store: RowStore | None = None,
+          command: str | None = None) -> TrainResult:
     """Train on the dataset at ``root`` without the assembly ``holdout`` / the family
     ``holdout_family``; report metrics on what was held out.
 
     ``on_step`` gets after every batch ``{"epoch", "epochs", "step", "steps", "loss", "accuracy"}``
-    (running means over the epoch so far).
+    (running means over the epoch so far). ``command`` (the command line that asked for this
+    training) is stored in the checkpoint's provenance with the corpus version (``corpus_version``).
     """
     root = str(Path(root).resolve())
     if store is None and Path(root).is_dir():
@@ -308,14 +309,38 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
     fingerprint = store.fingerprint(index) if store is not None else data_fingerprint(sel)
     summary = (store.summary(index, config.threshold) if store is not None
                else assembly_summary(sel, config.threshold))
-    training = {"config": config.to_dict(), "dataset": root, "holdout": holdout,
-                "holdout_family": holdout_family, "class_counts": [int(c) for c in counts],
-                "class_weights": weights, "trials": n_trials, "device": str(device),
+    training = {"config": config.to_dict(), "model_config": model_config.to_dict(),
+                "dataset": root, "corpus": corpus_version(root, fingerprint),
+                "holdout": holdout, "holdout_family": holdout_family,
+                "class_counts": [int(c) for c in counts], "class_weights": weights,
+                "trials": n_trials, "device": str(device), "command": command,
                 "seconds": time.perf_counter() - t0, "code_version": __version__,
                 "torch_version": str(torch.__version__)}
     return TrainResult(model=model.cpu(), threshold=float(config.threshold),
                        data_fingerprint=fingerprint, assemblies=summary, image_stats=stats,
                        metrics=metrics, training=training, calibration=calibration)
+
+
+def corpus_version(root: str | Path, fingerprint: str) -> dict:
+    """What a model was trained on, for its checkpoint: the dataset's directory name, rows, root
+    seed, simulator parameters' fingerprint, the labelling code's version and the training rows'
+    fingerprint (hex SHA-256 of their sorted keys and the dataset metadata)."""
+    from rap.dataset import open_dataset, read_meta
+
+    meta = read_meta(root)
+    params_fp = None
+    if meta is not None:
+        try:
+            from rap.sim.params import SimParams
+
+            params_fp = SimParams.from_dict(dict(meta.params)).fingerprint()
+        except (TypeError, ValueError):
+            params_fp = None
+    return {"name": Path(root).name, "rows": open_dataset(root).count_rows(),
+            "root_seed": meta.root_seed if meta else None, "params_fingerprint": params_fp,
+            "labelled_by": meta.code_version if meta else None,
+            "schema_version": meta.schema_version if meta else None,
+            "training_rows_fingerprint": fingerprint}
 
 
 def assembly_summary_names(sel: Selection) -> list[str]:

@@ -68,3 +68,17 @@ def test_evaluate_by_family(family_dataset, tmp_path):
     # auto: the reference assembly out, then each generated family out
     assert "leave-one-assembly-out" in res.output and "leave-one-family-out" in res.output
     assert "| pegs |" in (out / "table.md").read_text()
+
+
+def test_checkpoint_carries_its_provenance(family_dataset, tmp_path):
+    out = tmp_path / "p.pt"
+    res = CliRunner().invoke(app, ["train", str(family_dataset), "--out", str(out), "--epochs",
+                                   "1", "--device", "cpu", "--recipe", "paper", "--seed", "4"])
+    assert res.exit_code == 0, res.output
+    t = Predictor.load(out).training
+    assert t["command"].startswith("rap-farm") and t["config"]["seed"] == 4
+    assert t["model_config"]["head"] == "class" and t["code_version"]
+    c = t["corpus"]
+    assert c["rows"] == 5 * 96 and c["schema_version"] == 2 and c["root_seed"] == 2
+    assert len(c["training_rows_fingerprint"]) == 64
+    assert c["training_rows_fingerprint"] == Predictor.load(out).data_fingerprint
