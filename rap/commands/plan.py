@@ -174,6 +174,13 @@ def plan_command(
                                "~/.cache/rap-farm/scores.json or $RAP_CACHE]."),
     no_cache: bool = typer.Option(False, "--no-cache", help="Neither read nor write a cache file."),
     samples: int = typer.Option(50, "--samples", min=1, help="Random sequences (method random)."),
+    fallback_k: int = typer.Option(None, "--fallback-k", min=1, help="Method rap: when no "
+                                   "candidate is predicted high, simulate only the K most likely "
+                                   "[default: every candidate, the paper's rule]."),
+    beam_width: int = typer.Option(None, "--beam-width", min=1, help="Method search: beam width "
+                                   "beyond the exact search's budget [default: 8]."),
+    simulations: int = typer.Option(None, "--simulations", min=0, help="Method search: "
+                                    "simulations to spend while planning [default: 0]."),
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
                                 "actors with --address [default: all CPUs]."),
 ):
@@ -199,7 +206,9 @@ def plan_command(
             ("--address", address, None), ("--no-ray", no_ray, False), ("--model", model, None),
             ("--trials", trials, 100), ("--space", space, "online"), ("--cache", cache, None),
             ("--no-cache", no_cache, False), ("--samples", samples, 50),
-            ("--workers", workers, None)) if v != default]
+            ("--workers", workers, None), ("--fallback-k", fallback_k, None),
+            ("--beam-width", beam_width, None), ("--simulations", simulations, None))
+            if v != default]
         if given:
             raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
                              f"its own settings: model, trials, cache, workers)")
@@ -232,14 +241,19 @@ def plan_command(
         address = None if no_ray else (address or os.environ.get("RAY_ADDRESS") or None)
         if address is None:
             result = _plan_here(asm, method, params, root_seed, space, samples, model_path,
-                                cache_path, _local_workers(workers), err)
+                                cache_path, _local_workers(workers), err,
+                                dict(fallback_k=fallback_k, beam_width=beam_width,
+                                     simulations=simulations))
         else:
             import rap.farm.service as service
 
             if model_path is not None:
                 _familiarity(asm, _load_cnn(model_path), space, err)
             on_ray = True
-            req = service.PlanRequest(asm, method, params, root_seed, space, samples)
+            req = service.PlanRequest(asm, method, params, root_seed, space, samples,
+                                      planner_options=dict(fallback_k=fallback_k,
+                                                           beam_width=beam_width,
+                                                           simulations=simulations))
             with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
                 result = service.run_plan(req, model_path=model_path, address=address,
                                           workers=workers,
@@ -275,7 +289,7 @@ def _load_cnn(model_path: str):
 
 
 def _plan_here(asm, method, params, root_seed, space, samples, model_path, cache_path, workers,
-               err):
+               err, options: dict | None = None):
     """Plan in this process; simulation batches over ``workers`` forked processes."""
     from rap.plan.cache import ScoreCache
     from rap.plan.planners import make_planner
@@ -289,7 +303,8 @@ def _plan_here(asm, method, params, root_seed, space, samples, model_path, cache
     cache_obj = ScoreCache(cache_path)
     sim = LocalSimulator(processes=workers)
     try:
-        result = make_planner(method, samples=samples).solve(problem, Scorer(sim, cnn, cache_obj))
+        planner = make_planner(method, samples=samples, **(options or {}))
+        result = planner.solve(problem, Scorer(sim, cnn, cache_obj))
     finally:
         sim.close()
     cache_obj.flush()

@@ -121,6 +121,7 @@ class PlanRequest:
     samples: int = 50
     budget: Budget = field(default_factory=Budget)
     cold: bool = False
+    planner_options: dict = field(default_factory=dict)  # make_planner's keyword options
 
 
 class PlanningService:
@@ -171,7 +172,8 @@ class PlanningService:
             cache = ScoreCache() if request.cold else None
             scorer = self.base.fork(budget=request.budget, cache=cache)
             t = time.perf_counter()
-            result = make_planner(request.method, samples=request.samples).solve(problem, scorer)
+            result = make_planner(request.method, samples=request.samples,
+                                  **request.planner_options).solve(problem, scorer)
             if cache is not None:
                 self.cache.put_many(cache.items())
             stats = dict(result.stats, service_seconds=time.perf_counter() - t)
