@@ -3,7 +3,7 @@
     python scripts/make_corpus.py assemblies   # the generated assemblies -> datasets/corpus/_assemblies
     python scripts/make_corpus.py plan         # rows the corpus will hold, per family (no labelling)
     python scripts/make_corpus.py label [--workers N] [--address ADDR]   # resumable
-    python scripts/make_corpus.py card         # per-family counts and score histograms (Markdown)
+    python scripts/make_corpus.py card         # the card's figures -> datasets/README.md (between markers)
 
 Everything is deterministic: family ``F`` contributes the assemblies ``generate(F, seed)`` for
 ``seed`` in ``range(SEEDS)`` (options drawn per seed, see ``rap.geometry.families``); ``label`` runs
@@ -104,29 +104,60 @@ def label(workers: int | None, address: str | None) -> None:
             sys.exit(rc)
 
 
+CARD = ROOT / "datasets" / "README.md"
+BEGIN, END = "<!-- corpus-card:begin -->", "<!-- corpus-card:end -->"
+
+
 def card() -> None:
-    """Markdown tables of the corpus as it is: per family rows, assemblies, high fraction and a
-    10-bin score histogram."""
+    """The card's figures, as they are in the committed corpus: totals, the simulator parameters'
+    fingerprint, the labelling code's version, per-family rows, assemblies, high fraction and a
+    10-bin score histogram. Printed, and written into datasets/README.md between the markers."""
     import numpy as np
     import pyarrow.compute as pc
 
     from rap.dataset import open_dataset, read_meta
+    from rap.sim.params import SimParams
 
-    t = open_dataset(CORPUS).to_table(columns=["assembly", "family", "score", "trials"])
+    t = open_dataset(CORPUS).to_table(columns=["assembly", "family", "score", "trials",
+                                                "direction_index", "code_version"])
     fam = np.array(t.column("family").to_pylist(), dtype=object)
+    names = np.array(t.column("assembly").to_pylist(), dtype=object)
     score = t.column("score").to_numpy()
     meta = read_meta(CORPUS)
-    print(f"rows {t.num_rows}, assemblies {len(pc.unique(t['assembly']))}, families "
-          f"{len(set(fam))}, trials {sorted(set(t.column('trials').to_pylist()))}, "
-          f"high {np.mean(score >= 0.95):.3f}; root seed {meta.root_seed}\n")
-    print("| family | assemblies | rows | high (>= 0.95) | score histogram, 10 bins of 0.1 |")
-    print("|---|---:|---:|---:|---|")
-    names = np.array(t.column("assembly").to_pylist(), dtype=object)
-    for f in sorted(set(fam)):
+    files = sorted(CORPUS.glob("*/part-*.parquet"))
+    size = sum(f.stat().st_size for f in files)
+    params = SimParams.from_dict(dict(meta.params))
+    lines = [
+        f"- rows: **{t.num_rows:,}** from **{len(set(names.tolist()))}** assemblies in "
+        f"**{len(set(fam.tolist()))}** families (`reference`: the six); "
+        f"{int((fam != 'reference').sum()):,} rows of generated assemblies",
+        f"- trials per operation: {sorted(set(t.column('trials').to_pylist()))}; high (score >= "
+        f"0.95): {np.mean(score >= 0.95):.3f}",
+        f"- directions: {', '.join(f'index {k}: {v:,}' for k, v in sorted(zip(*np.unique(t.column('direction_index').to_numpy(), return_counts=True))))} "
+        "(0: the middle of the range)",
+        f"- shards: {len(files)} Parquet files, {size / 2 ** 20:.1f} MiB in all, the largest "
+        f"{max(f.stat().st_size for f in files) / 2 ** 20:.2f} MiB",
+        f"- root seed {meta.root_seed}; simulator parameters' fingerprint "
+        f"`{params.fingerprint()}` (`rap.sim.params.SimParams()`, 100 trials); schema version "
+        f"{meta.schema_version}; labelled by rap-farm "
+        f"{', '.join(sorted(set(t.column('code_version').to_pylist())))}",
+        "",
+        "| family | assemblies | rows | high (>= 0.95) | rows per score bin [0, 0.1) ... [0.9, 1] |",
+        "|---|---:|---:|---:|---|",
+    ]
+    for f in sorted(set(fam.tolist())):
         sel = fam == f
         h = np.histogram(score[sel], bins=10, range=(0, 1))[0]
-        print(f"| {f} | {len(set(names[sel]))} | {int(sel.sum())} | {np.mean(score[sel] >= 0.95):.2f} "
-              f"| {' '.join(str(int(x)) for x in h)} |")
+        lines.append(f"| {f} | {len(set(names[sel].tolist()))} | {int(sel.sum()):,} | "
+                     f"{np.mean(score[sel] >= 0.95):.2f} | {' '.join(str(int(x)) for x in h)} |")
+    text = "\n".join(lines)
+    print(text)
+    doc = CARD.read_text()
+    if BEGIN in doc and END in doc:
+        head, rest = doc.split(BEGIN, 1)
+        _, tail = rest.split(END, 1)
+        CARD.write_text(f"{head}{BEGIN}\n{text}\n{END}{tail}")
+        print(f"\nwrote the figures into {CARD.relative_to(ROOT)}")
 
 
 def main(argv=None) -> None:
