@@ -32,6 +32,7 @@ VARIANTS = [  # (name, overrides of the 'paper' recipe), cumulative
     ("+ cosine schedule", {"schedule": "cosine"}),
     ("+ binomial head (success counts)", {"head": "binomial"}),
     ("+ calibration temperature", {"calibrate": True}),
+    ("+ close-up of the mating region", {"view": "pair+crop"}),
 ]
 
 

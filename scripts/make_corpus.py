@@ -63,7 +63,13 @@ def make_assemblies() -> None:
             tmp.write_text(text)
             tmp.replace(path)
             n += 1
-    print(f"{len(FAMILIES) * SEEDS} assemblies in {ASSEMBLY_DIR.relative_to(ROOT)} ({n} written)")
+    for path in REFERENCE:  # the six too, so that the corpus carries all of its geometry
+        target = ASSEMBLY_DIR / path.name
+        if not target.exists() or target.read_bytes() != path.read_bytes():
+            target.write_bytes(path.read_bytes())
+            n += 1
+    print(f"{len(FAMILIES) * SEEDS} generated and {len(REFERENCE)} reference assemblies in "
+          f"{ASSEMBLY_DIR.relative_to(ROOT)} ({n} written)")
 
 
 def plan() -> None:

@@ -32,7 +32,8 @@ HIGH = 1
 class ModelConfig:
     """Shape of the network. ``channels`` are the four convolutions' output channels, ``hidden``
     the three fully connected layers' widths; ``norm`` "none" (the paper) or "batch"; ``head``
-    "class" (the paper, ``n_classes`` outputs) or "binomial" (one output)."""
+    "class" (the paper, ``n_classes`` outputs) or "binomial" (one output); ``view`` the input
+    images: "pair" (start, goal) or "pair+crop" (and the close-up of the mating region)."""
 
     in_channels: int = 2
     image_size: int = 64
@@ -44,8 +45,14 @@ class ModelConfig:
     n_classes: int = 2
     norm: str = "none"
     head: str = "class"
+    view: str = "pair"  # input images (rap.render.images.VIEWS): in_channels must match
 
     def __post_init__(self):
+        from rap.render.images import view_channels
+
+        if view_channels(self.view) != self.in_channels:
+            raise ValueError(f"ModelConfig: view {self.view!r} has {view_channels(self.view)} "
+                             f"channels, in_channels is {self.in_channels}")
         if self.norm not in ("none", "batch"):
             raise ValueError(f"ModelConfig: norm must be none or batch, not {self.norm!r}")
         if self.head not in HEADS:

@@ -119,16 +119,15 @@ def iter_rows(sel: Selection, batch_size: int = 256,
 
 
 def image_stats(batches) -> dict:
-    """Summary of uint8 image batches [n, 2, 64, 64]: per channel, mean intensity (0..1) and the
+    """Summary of uint8 image batches [n, C, 64, 64]: per channel, mean intensity (0..1) and the
     mean and standard deviation over images of the foreground fraction (pixels > 0); a coarse 8x8
     mean foreground image per channel. The planner compares new images against these."""
     n = 0
-    fg_sum = np.zeros(2)
-    fg_sq = np.zeros(2)
-    inten = np.zeros(2)
-    coarse = np.zeros((2, 8, 8))
+    fg_sum = fg_sq = inten = coarse = None
     for images in batches:
         k, c, hgt, wid = images.shape
+        if fg_sum is None:
+            fg_sum, fg_sq, inten, coarse = np.zeros(c), np.zeros(c), np.zeros(c), np.zeros((c, 8, 8))
         fg = images > 0
         frac = fg.reshape(k, c, -1).mean(axis=2)
         fg_sum += frac.sum(axis=0)
@@ -279,7 +278,7 @@ class RowStore:
         self.root = str(Path(root).resolve())
         t = open_dataset(self.root).to_table(
             columns=["key", "assembly", "geometry_hash", "family", "score", "successes", "trials",
-                     "image"])
+                     "moving", "fixed", "direction_x", "direction_y", "image"])
         self.images = decode_images(t.column("image")).copy()
         self.scores = t.column("score").to_numpy()
         self.successes = t.column("successes").to_numpy().astype(np.int64)
@@ -287,11 +286,35 @@ class RowStore:
         self.keys = np.array(t.column("key").to_pylist(), dtype=object)
         self.assembly = np.array(t.column("assembly").to_pylist(), dtype=object)
         self.geometry_hash = np.array(t.column("geometry_hash").to_pylist(), dtype=object)
+        self.moving = np.array(t.column("moving").to_pylist(), dtype=object)
+        self.fixed = np.array(t.column("fixed").to_pylist(), dtype=object)
+        self.direction = np.stack([t.column("direction_x").to_numpy(),
+                                   t.column("direction_y").to_numpy()], axis=1)
+        self.view_name = "pair"
+        self._views: dict[str, "RowStore"] = {}
         fam = pc.if_else(pc.is_null(t.column("family")), "custom", t.column("family"))
         self.family = np.array(fam.to_pylist(), dtype=object)
 
     def __len__(self) -> int:
         return len(self.scores)
+
+    def view(self, view: str) -> "RowStore":
+        """The same rows with the images of ``view`` (``rap.model.views``): the stored pair, or
+        the pair followed by channels rendered again from the geometry (made once, cached)."""
+        if view == self.view_name:
+            return self
+        if view not in self._views:
+            import copy
+
+            from rap.model.views import extra_channels
+
+            extra = extra_channels(self, view)
+            other = copy.copy(self)
+            other.images = np.concatenate([self.images, extra], axis=1)
+            other.view_name = view
+            other._views = {}
+            self._views[view] = other
+        return self._views[view]
 
     def index(self, sel: Selection) -> np.ndarray:
         mask = np.ones(len(self), dtype=bool)

@@ -80,6 +80,11 @@ class Predictor:
         return self.checkpoint.config.head
 
     @property
+    def view(self) -> str:
+        """The images the network takes (``rap.render.images.render_view``)."""
+        return self.checkpoint.config.view
+
+    @property
     def temperature(self) -> float:
         return float((self.checkpoint.calibration or {}).get("temperature", 1.0))
 

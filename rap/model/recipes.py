@@ -46,6 +46,13 @@ def recipe(name: str, **overrides) -> tuple[ModelConfig, TrainConfig]:
             t_over[k] = v
         else:
             raise InputError(f"unknown recipe field {k!r}")
+    if "view" in m_over and "in_channels" not in m_over:
+        from rap.render.images import view_channels
+
+        try:
+            m_over["in_channels"] = view_channels(m_over["view"])
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
     try:
         return replace(model, **m_over), replace(train, **t_over)
     except ValueError as exc:

@@ -219,6 +219,11 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
         sel = select(root, exclude=exclude + tuple(val), exclude_families=exclude_families)
     device = resolve_device(config.device)
     head = model_config.head
+    if model_config.view != "pair":
+        if store is None:
+            raise InputError(f"view {model_config.view!r} needs the dataset in memory "
+                             f"(raise max_memory_mb)")
+        store = store.view(model_config.view)
     t0 = time.perf_counter()
     with _Threads(config.num_threads), \
             torch.random.fork_rng(devices=[device.index or 0] if device.type == "cuda" else []):

@@ -45,7 +45,7 @@ _FORMAT = "rap-farm/robustness-cnn"
 _FORMAT_VERSION = 1
 _CONFIG_KEYS = {"in_channels", "image_size", "channels", "kernel_size", "padding", "hidden",
                 "dropout", "n_classes"}
-_OPTIONAL_KEYS = {"norm", "head"}  # absent in older checkpoints: "none", "class"
+_OPTIONAL_KEYS = {"norm", "head", "view"}  # absent in older checkpoints: "none", "class", "pair"
 _LINEAR = ("head.1", "head.4", "head.7", "head.10")
 _STORAGES = {"FloatStorage": np.float32, "DoubleStorage": np.float64, "HalfStorage": np.float16,
              "LongStorage": np.int64, "IntStorage": np.int32, "ShortStorage": np.int16,
@@ -154,6 +154,7 @@ class FastPredictor:
         self.padding = int(cfg["padding"])
         self.norm = cfg.get("norm", "none")
         self.head = cfg.get("head", "class")
+        self.view = cfg.get("view", "pair")  # which images to render (rap.render.images.VIEWS)
         sd = blob["state_dict"]
         self.convs = []  # (weight, scale or None, shift): conv, then y * scale + shift
         for conv, bn in _conv_names(self.norm):
@@ -274,6 +275,8 @@ def _supported(blob) -> bool:
             return False
         norm, head = cfg.get("norm", "none"), cfg.get("head", "class")
         if norm not in ("none", "batch") or head not in ("class", "binomial"):
+            return False
+        if cfg.get("view", "pair") not in ("pair", "pair+crop"):
             return False
         if len(cfg["channels"]) != 4 or len(cfg["hidden"]) != 3 or int(cfg["n_classes"]) != 2:
             return False

@@ -175,12 +175,16 @@ class PredictorCnn:
         return {"assemblies": p.assemblies, "image_stats": p.image_stats}
 
     def images(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        """The images the network takes (its checkpoint's view), uint8 [N, C, 64, 64]."""
+        view = getattr(self.predictor, "view", "pair")
         if self._render is None:
-            from rap.render.images import render_pair
+            from rap.render.images import render_view
 
-            self._render = render_pair
+            self._render = lambda a, op, size: render_view(a, op, view, size=size)
         if not ops:
-            return np.zeros((0, 2, IMAGE_SIZE, IMAGE_SIZE), np.uint8)
+            from rap.render.images import view_channels
+
+            return np.zeros((0, view_channels(view), IMAGE_SIZE, IMAGE_SIZE), np.uint8)
         return np.stack([np.asarray(self._render(problem.assembly, op, size=IMAGE_SIZE), np.uint8)
                          for op in ops])
 

@@ -10,6 +10,13 @@ orientation. Fixed parts are drawn at ``FIXED`` (255), moving parts at ``MOVING`
 background colour; parts drawn largest box first, so a part lying in another's hole stays) and
 reduced with a box filter. Deterministic: the same input gives the same bytes.
 
+``render_crop(assembly, operation, ...) -> uint8 [2, size, size]``: a close-up of the mating
+region in the same orientation: a window of ``CROP_CONTEXT`` times the moving subassembly's larger
+extent, centred on where it ends; channel 0 shows it on its approach (``CROP_APPROACH`` extents
+back along the motion), channel 1 in place. At 64 pixels for the whole operation a clearance of
+1-3 units is under a pixel; here it is several. ``render_view(..., view)`` gives the channels a
+network was trained on: ``"pair"`` (2 channels) or ``"pair+crop"`` (4: the pair, then the crop).
+
 Cost: O(vertices) per image plus the rasterisation of a (4 size)^2 canvas.
 """
 
@@ -27,13 +34,17 @@ from rap.operation import Operation
 from rap.sim.params import DEFAULT_PARAMS
 from rap.sim.placement import placement
 
-__all__ = ["render_pair", "render_many", "render_masks", "render_start_goal_png", "view_transform", "FIXED",
-           "MOVING", "SUPERSAMPLE", "MARGIN"]
+__all__ = ["render_pair", "render_crop", "render_view", "view_channels", "VIEWS", "render_many",
+           "render_masks", "render_start_goal_png", "view_transform", "FIXED", "MOVING",
+           "SUPERSAMPLE", "MARGIN", "CROP_CONTEXT", "CROP_APPROACH"]
 
 FIXED = 255
 MOVING = 128
 SUPERSAMPLE = 4
 MARGIN = 0.06  # fraction of the image left free on each side
+CROP_CONTEXT = 2.0  # the close-up's window side, x the moving subassembly's larger extent
+CROP_APPROACH = 0.5  # the close-up's approach pose: this many extents back along the motion
+VIEWS = {"pair": 2, "pair+crop": 4}  # view -> channels
 
 
 def _rotation(direction: tuple[float, float]) -> tuple[float, float, float, float]:
@@ -100,6 +111,48 @@ def render_pair(assembly: Assembly, operation: Operation, params=None, size: int
     start = _draw(fixed + [(MOVING, part, shift, to_pixel) for part in mov], size)
     goal = _draw(fixed + [(MOVING, part, zero, to_pixel) for part in mov], size)
     return np.stack([start, goal])
+
+
+def render_crop(assembly: Assembly, operation: Operation, params=None, size: int = 64,
+                context: float = CROP_CONTEXT, approach: float = CROP_APPROACH) -> np.ndarray:
+    """uint8 [2, size, size]: the mating region close up (see the module docstring)."""
+    a, b, c, d = _rotation(operation.direction)
+    R = np.array([[a, b], [c, d]])
+    mov_parts = _parts(assembly, operation.moving)
+    moving = np.array([xy for part in mov_parts for xy in part.float_outer()]) @ R.T
+    lo, hi = moving.min(axis=0), moving.max(axis=0)
+    extent = float(max(hi[0] - lo[0], hi[1] - lo[1]))
+    k = size / (context * extent)
+    mid = (lo + hi) / 2
+
+    def to_pixel(xy: np.ndarray) -> np.ndarray:
+        q = (np.asarray(xy, dtype=float) @ R.T - mid) * k
+        return np.stack([size / 2 + q[:, 0], size / 2 - q[:, 1]], axis=1)
+
+    back = -approach * extent * np.asarray(operation.direction, dtype=float)
+    zero = np.zeros(2)
+    fixed = [(FIXED, part, zero, to_pixel) for part in _parts(assembly, operation.fixed)]
+    near = _draw(fixed + [(MOVING, part, back, to_pixel) for part in mov_parts], size)
+    goal = _draw(fixed + [(MOVING, part, zero, to_pixel) for part in mov_parts], size)
+    return np.stack([near, goal])
+
+
+def render_view(assembly: Assembly, operation: Operation, view: str = "pair", params=None,
+                size: int = 64) -> np.ndarray:
+    """uint8 [VIEWS[view], size, size]: the pair, or the pair and the close-up."""
+    if view == "pair":
+        return render_pair(assembly, operation, params, size)
+    if view == "pair+crop":
+        return np.concatenate([render_pair(assembly, operation, params, size),
+                               render_crop(assembly, operation, params, size)])
+    raise ValueError(f"view must be one of {list(VIEWS)}, not {view!r}")
+
+
+def view_channels(view: str) -> int:
+    try:
+        return VIEWS[view]
+    except KeyError:
+        raise ValueError(f"view must be one of {list(VIEWS)}, not {view!r}") from None
 
 
 def render_masks(assembly: Assembly, operation: Operation, params=None, size: int = 64) -> np.ndarray:
