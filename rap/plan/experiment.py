@@ -41,8 +41,22 @@ EXPERIMENT_METHODS = ("random", "rap", "sim", "optimal")
 
 
 def method_planner(method: str, samples: int = 50):
-    """The planner of a method name: one of ``EXPERIMENT_METHODS`` or ``rap-kK`` (RAP whose
-    fallback simulates the K candidates with the highest P(high))."""
+    """The planner of a method name: one of ``EXPERIMENT_METHODS``, ``rap-kK`` (RAP whose
+    fallback simulates the K candidates with the highest P(high)), or ``search`` with options
+    ``-wW`` (beam width W, used beyond the exact search's budget; ``-w`` alone with ``-b``:
+    always the beam), ``-sN`` (N simulations while planning): e.g. ``search-w2-s10``."""
+    if method == "search" or method.startswith("search-"):
+        from rap.plan.search import DEFAULT_BEAM, DEFAULT_MAX_OPERATIONS, SearchPlanner
+
+        opts = {"w": DEFAULT_BEAM, "s": 0, "b": DEFAULT_MAX_OPERATIONS}
+        for part in method.split("-")[1:]:
+            key, val = part[:1], part[1:]
+            if key not in opts or not val.isdigit():
+                raise InputError(f"method {method!r}: search options are -wW, -sN, -bOPS")
+            opts[key] = int(val)
+        if opts["w"] < 1 or opts["b"] < 1:
+            raise InputError(f"method {method!r}: W and OPS must be >= 1")
+        return SearchPlanner(beam_width=opts["w"], simulations=opts["s"], max_operations=opts["b"])
     if method.startswith("rap-k"):
         try:
             k = int(method[5:])
@@ -57,7 +71,7 @@ def method_planner(method: str, samples: int = 50):
 
 
 def uses_cnn(method: str) -> bool:
-    return method == "rap" or method.startswith("rap-k")
+    return method in ("rap", "search") or method.startswith(("rap-k", "search-"))
 
 
 @dataclass

@@ -70,3 +70,14 @@ def test_family_holdout_model_is_found(tmp_path):
         "holdout-family-walls.pt"
     (tmp_path / "holdout-walls-s3.pt").write_bytes(b"x")
     assert E.holdout_model("ds", "walls-s3", tmp_path, family="walls").name == "holdout-walls-s3.pt"
+
+
+def test_search_method_names():
+    from rap.plan.search import SearchPlanner
+
+    p = E.method_planner("search-w2-s10-b50")
+    assert isinstance(p, SearchPlanner) and (p.beam_width, p.simulations, p.max_operations) == (2, 10, 50)
+    assert E.uses_cnn("search-w2") and E.uses_cnn("search") and not E.uses_cnn("sim")
+    for bad in ("search-x2", "search-w", "search-w0"):
+        with pytest.raises(Exception):
+            E.method_planner(bad)
