@@ -27,7 +27,7 @@ from pathlib import Path
 import typer
 
 from rap.errors import EXIT_INFEASIBLE, InputError, RapError
-from rap.plan.planners import METHODS  # rap, sim, optimal, random, search
+from rap.plan.methods import METHODS  # rap, sim, optimal, random, search
 
 __all__ = ["register", "plan_command", "InfeasiblePlan", "default_model_path", "print_result",
            "write_plan_json", "resolve_model"]
@@ -292,7 +292,7 @@ def _plan_here(asm, method, params, root_seed, space, samples, model_path, cache
                err, options: dict | None = None):
     """Plan in this process; simulation batches over ``workers`` forked processes."""
     from rap.plan.cache import ScoreCache
-    from rap.plan.planners import make_planner
+    from rap.plan.methods import make_planner
     from rap.plan.problem import PlanningProblem
     from rap.plan.scorers import LocalSimulator, Scorer
 

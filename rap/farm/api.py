@@ -23,7 +23,7 @@ from decimal import Decimal, InvalidOperation
 from rap.assembly import AssemblyError
 from rap.io import parse_assembly
 from rap.errors import InputError
-from rap.plan.planners import METHODS
+from rap.plan.methods import METHODS
 from rap.seeds import DEFAULT_ROOT_SEED
 
 __all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "is_loopback", "REQUEST_KEYS",

@@ -67,7 +67,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from rap import __version__
 from rap.errors import InputError, RapError
-from rap.plan.planners import METHODS
+from rap.plan.methods import METHODS
 from rap.plan.scorers import Budget
 from rap.seeds import DEFAULT_ROOT_SEED
 

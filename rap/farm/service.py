@@ -39,7 +39,7 @@ from rap.assembly import Assembly
 from rap.errors import RapError
 from rap.operation import Operation
 from rap.plan.cache import CachedScore, ScoreCache
-from rap.plan.planners import make_planner
+from rap.plan.methods import make_planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanResult
 from rap.plan.scorers import Budget, LocalSimulator, PredictorCnn, Scorer

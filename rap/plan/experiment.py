@@ -29,7 +29,7 @@ from typing import Callable, Sequence
 
 from rap.errors import InputError
 from rap.plan.cache import ScoreCache
-from rap.plan.planners import make_planner
+from rap.plan.methods import make_planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStatus
 from rap.plan.scorers import PredictorCnn, Scorer, SimBackend

@@ -46,11 +46,10 @@ from rap.plan.result import PlanResult, PlanStatus, PlanStep, interlocked_messag
 from rap.plan.scorers import Budget, BudgetSpent, Scorer
 from rap.seeds import derive_rng
 
-__all__ = ["Planner", "RapPlanner", "SimPlanner", "OptimalPlanner", "RandomPlanner", "METHODS",
-           "make_planner", "evaluate_steps", "assembly_order", "dp_choice", "dead_end",
+__all__ = ["Planner", "RapPlanner", "SimPlanner", "OptimalPlanner", "RandomPlanner",
+           "evaluate_steps", "assembly_order", "dp_choice", "dead_end",
            "HIGH_PROBABILITY"]
 
-METHODS = ("rap", "sim", "optimal", "random", "search")
 HIGH_PROBABILITY = 0.5  # the CNN's class decision: P(high) >= 0.5 is "high"
 
 
@@ -369,25 +368,3 @@ class RandomPlanner(Planner):
                      min_robustness=float(r.min()), max_robustness=float(r.max()),
                      distinct_sequences=len({tuple(st.to_operation().key("") for st in o) for o in orders}))
         return orders[pick]
-
-
-def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None,
-                 beam_width: int | None = None, simulations: int | None = None) -> Planner:
-    """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` for RAP (None: all);
-    ``beam_width`` and ``simulations`` for search (None: its defaults)."""
-    if method == "rap":
-        return RapPlanner(fallback_k=fallback_k)
-    if method == "search":
-        from rap.plan.search import DEFAULT_BEAM, SearchPlanner
-
-        return SearchPlanner(beam_width=beam_width or DEFAULT_BEAM,
-                             simulations=simulations or 0)
-    if method == "sim":
-        return SimPlanner()
-    if method == "optimal":
-        return OptimalPlanner()
-    if method == "random":
-        return RandomPlanner(samples)
-    from rap.errors import InputError
-
-    raise InputError(f"--method {method!r}: choose one of {', '.join(METHODS)}")

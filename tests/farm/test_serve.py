@@ -110,7 +110,7 @@ def _local_plan(assembly, method: str, seed: int, processes: int = 1) -> dict:
     """The same request planned in this process (the service's settings)."""
     from rap.commands.plan import default_model_path
     from rap.plan.cache import ScoreCache
-    from rap.plan.planners import make_planner
+    from rap.plan.methods import make_planner
     from rap.plan.problem import PlanningProblem
     from rap.plan.scorers import LocalSimulator, PredictorCnn, Scorer
     from rap.sim.params import SimParams

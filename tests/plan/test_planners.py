@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from rap.plan.cache import ScoreCache
-from rap.plan.planners import METHODS, OptimalPlanner, RapPlanner, SimPlanner, make_planner
+from rap.plan.methods import METHODS, make_planner
+from rap.plan.planners import OptimalPlanner, RapPlanner, SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStatus, is_assembly_order
 from rap.plan.scorers import Budget, LocalSimulator, Scorer

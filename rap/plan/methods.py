@@ -1,0 +1,33 @@
+"""The planning methods by name: the one place that knows every planner class.
+
+``make_planner(name)`` is what the CLI, the planning service and the experiment call; keeping it
+apart from the planner classes lets ``search`` build on ``planners`` without an import cycle.
+"""
+
+from __future__ import annotations
+
+from rap.errors import InputError
+from rap.plan.planners import OptimalPlanner, Planner, RandomPlanner, RapPlanner, SimPlanner
+from rap.plan.search import DEFAULT_BEAM, SearchPlanner
+
+__all__ = ["METHODS", "make_planner"]
+
+METHODS = ("rap", "sim", "optimal", "random", "search")
+
+
+def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None,
+                 beam_width: int | None = None, simulations: int | None = None) -> Planner:
+    """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` for RAP (None: all);
+    ``beam_width`` and ``simulations`` for search (None: its defaults)."""
+    if method == "rap":
+        return RapPlanner(fallback_k=fallback_k)
+    if method == "search":
+        return SearchPlanner(beam_width=beam_width or DEFAULT_BEAM,
+                             simulations=simulations or 0)
+    if method == "sim":
+        return SimPlanner()
+    if method == "optimal":
+        return OptimalPlanner()
+    if method == "random":
+        return RandomPlanner(samples)
+    raise InputError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
