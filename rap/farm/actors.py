@@ -13,49 +13,22 @@ real physics (the default) and anything with the same signatures.
 
 from __future__ import annotations
 
-import importlib
 import os
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
-import numpy as np
 import ray
 
-from rap import __version__
-from rap.dataset import IMAGE_SIZE
-from rap.operation import Operation, subset_key
+from rap.operation import Operation
 
+from rap.farm.rows import Backend, label_rows, resolve
 from rap.farm.runtime import node_label
 
 __all__ = ["Backend", "SimTask", "BatchResult", "SimWorker", "resolve"]
 
 _ASSEMBLY_CACHE = 32  # assemblies kept per worker (LRU, by geometry hash)
-
-
-@dataclass(frozen=True)
-class Backend:
-    """Import paths (``module:attr``) of the simulator and the renderer used by the workers.
-
-    ``simulate(assembly, operation, params, rng) -> SimResult(successes, trials, score, seconds)``;
-    ``render(assembly, operation, params=..., size=...) -> uint8 [2, size, size]``;
-    ``warm_up() -> seconds`` runs once when the actor starts (empty: none), so that loading the
-    compiled simulator is not charged to the first batch.
-    """
-
-    simulate: str = "rap.sim.simulator:simulate"
-    render: str = "rap.render.images:render_pair"
-    warm_up: str = "rap.sim.simulator:warm_up"
-
-
-def resolve(path: str) -> Callable:
-    """The object at ``module:attr``."""
-    mod, _, attr = path.partition(":")
-    obj: Any = importlib.import_module(mod)
-    for a in attr.split("."):
-        obj = getattr(obj, a)
-    return obj
 
 
 @dataclass(frozen=True)
@@ -131,37 +104,9 @@ class SimWorker:
         t0 = time.perf_counter()
         simulate, render = self._functions(task.images)
         assembly = self._assembly(task)
-        rows, sim_s, render_s = [], 0.0, 0.0
-        for op, key, seed in zip(task.operations, task.keys, task.seeds):
-            t = time.perf_counter()
-            res = simulate(assembly, op, task.params, np.random.default_rng(seed))
-            t1 = time.perf_counter()
-            sim_s += t1 - t
-            image = None
-            if task.images:
-                pair = render(assembly, op, params=task.params, size=IMAGE_SIZE)
-                image = np.ascontiguousarray(pair, np.uint8).tobytes()
-                render_s += time.perf_counter() - t1
-            rows.append({
-                "key": key,
-                "assembly": task.assembly_name,
-                "geometry_hash": task.geometry_hash,
-                "subassembly": subset_key(op.subassembly),
-                "moving": subset_key(op.moving),
-                "fixed": subset_key(op.fixed),
-                "direction_x": float(op.direction[0]),
-                "direction_y": float(op.direction[1]),
-                "score": float(res.score),
-                "successes": int(res.successes),
-                "trials": int(res.trials),
-                "image": image,
-                "seed": int(seed),
-                "params": task.params_json,
-                "code_version": __version__,
-                "node": self._node,
-                "family": getattr(assembly, "family", "custom"),
-                "direction_index": int(getattr(op, "direction_index", 0)),
-                "seconds": float(getattr(res, "seconds", t1 - t)),
-            })
+        rows, sim_s, render_s = label_rows(
+            assembly, task.operations, task.keys, task.seeds, task.params, task.params_json,
+            simulate=simulate, render=render if task.images else None, node=self._node,
+            assembly_name=task.assembly_name, geometry_hash=task.geometry_hash)
         return BatchResult(task_id=task.task_id, rows=rows, node=self._node, pid=self._pid,
                            assembly=task.assembly_name, sim_s=sim_s, render_s=render_s, task_s=time.perf_counter() - t0)

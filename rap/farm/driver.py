@@ -29,26 +29,17 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import signal
-import tempfile
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator, Sequence
+from typing import Callable, Iterator
 
-from rap.assembly import Assembly
-from rap.io import load_assembly
-from rap.dataset import (METADATA_FILE, SCHEMA_VERSION, DatasetMeta, clean_partial_files, existing_keys,
-                         open_dataset, read_meta, rows_to_table, write_meta, write_shard)
-from rap.enumerate import MODES, Selection, label_key, label_seed, select_operations
-from rap.errors import InputError, RapError
-from rap.operation import Operation
+from rap.dataset import SCHEMA_VERSION, DatasetMeta, clean_partial_files, rows_to_table, write_meta, write_shard
 
-from rap.farm.actors import Backend, resolve
 from rap.farm.pool import Job, SimPool
 from rap.farm.runtime import connect
+from rap.farm.selection import HIST_BINS, LabelConfig, LabelPlan, LabelSummary, iter_jobs, prepare
 
 __all__ = ["PRESETS", "LabelConfig", "LabelPlan", "LabelSummary", "prepare", "run_label",
            "format_summary"]
@@ -59,202 +50,6 @@ PRESETS: dict[str, tuple[int, int | None]] = {
     "default": (100, 2000),
     "full": (100, None),
 }
-
-HIST_BINS = 10
-
-
-@dataclass(frozen=True)
-class LabelConfig:
-    """Everything ``rap-farm label`` takes. ``backend`` names the simulator/renderer/params."""
-
-    assemblies: tuple[str, ...]
-    out: str
-    address: str | None = None
-    workers: int | None = None
-    trials: int = 100
-    seed: int = 0
-    max_ops_per_assembly: int | None = None
-    directions_per_range: int = 1
-    mode: str = "all"
-    flush_rows: int = 512
-    flush_seconds: float = 30.0
-    first_flush_seconds: float = 2.0
-    batch_size: int | None = None
-    num_cpus: int | None = None  # embedded Ray only: CPUs to start it with (default: all)
-    backend: Backend = Backend()
-    params_factory: str = "rap.sim.params:SimParams"
-    progress: bool = True
-    command: str = "rap-farm label"
-
-
-@dataclass
-class LabelPlan:
-    """What ``prepare`` found: the checked inputs and, per assembly, the lazy selection."""
-
-    config: LabelConfig
-    assemblies: list[Assembly]
-    params: Any
-    selections: dict[str, Selection]  # assembly name -> what the run takes from it
-    existing_keys: set[str]  # keys already in the dataset (resume)
-    new_dataset: bool
-    started: float = field(default_factory=time.perf_counter)  # perf_counter at prepare()
-
-    @property
-    def total(self) -> int:
-        return sum(s.total for s in self.selections.values())
-
-    @property
-    def existing_rows(self) -> int:
-        return len(self.existing_keys)
-
-
-@dataclass
-class LabelSummary:
-    out: str
-    total: int = 0  # operations selected
-    existing: int = 0  # already in the dataset before this run
-    labelled: int = 0  # rows committed by this run
-    duplicates: int = 0  # results dropped because their key was already written
-    shards: int = 0
-    seconds: float = 0.0  # labelling (after the actors are up)
-    workers: int = 0
-    nodes: dict[str, int] = field(default_factory=dict)
-    per_assembly: dict[str, int] = field(default_factory=dict)
-    hist: list[int] = field(default_factory=lambda: [0] * HIST_BINS)
-    resubmitted: int = 0
-    failed: dict[str, str] = field(default_factory=dict)  # assembly name -> what went wrong
-    first_shard_s: float | None = None  # from the start of prepare() to the first commit
-    peak_rss_mib: float = 0.0  # the driver process's peak resident memory
-    sim_s: float = 0.0
-    task_s: float = 0.0
-    startup_s: float = 0.0  # starting/joining Ray and the actors
-    interrupted: bool = False
-
-    @property
-    def rate(self) -> float:
-        return self.labelled / self.seconds if self.seconds > 0 else 0.0
-
-
-# -- checks -------------------------------------------------------------------------------------
-def _check_out_dir(out: Path) -> None:
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a directory")
-    if out.is_dir() and not (out / METADATA_FILE).exists():
-        # entries named _* or .* are not data (readers skip them too): e.g. a corpus's _assemblies
-        if any(p for p in out.iterdir() if not p.name.startswith(("_", "."))):
-            raise InputError(f"--out {out}: directory is not empty and holds no rap-farm dataset "
-                             f"({METADATA_FILE} missing); choose a new or empty directory")
-    # Writable? Probe in the nearest existing ancestor without creating anything in the dataset.
-    probe_dir = out
-    while not probe_dir.exists():
-        if probe_dir.parent == probe_dir:
-            break
-        probe_dir = probe_dir.parent
-    if not probe_dir.is_dir():
-        raise InputError(f"--out {out}: {probe_dir} is not a directory")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".rapfarm-probe-", dir=probe_dir)
-        os.close(fd)
-        os.unlink(tmp)
-    except OSError as exc:
-        raise InputError(f"--out {out}: not writable ({exc.strerror or exc})") from None
-
-
-def _diff(a: dict, b: dict) -> str:
-    keys = sorted(set(a) | set(b))
-    bad = [k for k in keys if a.get(k) != b.get(k)]
-    return ", ".join(f"{k} {a.get(k)!r} != {b.get(k)!r}" for k in bad[:3]) + (" ..." if len(bad) > 3 else "")
-
-
-def _check_meta(out: Path, root_seed: int, params: Any) -> bool:
-    """True when ``out`` holds no dataset yet; raises when it holds an incompatible one."""
-    meta = read_meta(out)
-    if meta is None:
-        return True
-    if meta.schema_version != SCHEMA_VERSION:
-        raise InputError(f"--out {out}: dataset schema version {meta.schema_version}, this code "
-                         f"writes {SCHEMA_VERSION}; choose another --out")
-    if int(meta.root_seed) != int(root_seed):
-        raise InputError(f"--out {out}: dataset was labelled with --seed {meta.root_seed}, not "
-                         f"{root_seed}; rerun with --seed {meta.root_seed} or choose another --out")
-    want = json.loads(json.dumps(params.to_dict()))
-    if meta.params != want:
-        raise InputError(f"--out {out}: dataset was labelled with other simulator parameters "
-                         f"({_diff(meta.params, want)}); choose another --out")
-    return False
-
-
-def _check_geometry(out: Path, assemblies: Sequence[Assembly]) -> None:
-    if not any(out.glob("*/part-*.parquet")):
-        return
-    import pyarrow.compute as pc
-
-    t = open_dataset(out).to_table(columns=["assembly", "geometry_hash"])
-    pairs = pc.unique(pc.binary_join_element_wise(t["assembly"], t["geometry_hash"], "\0")).to_pylist()
-    stored: dict[str, set[str]] = {}
-    for s in pairs:
-        name, gh = s.split("\0")
-        stored.setdefault(name, set()).add(gh)
-    for a in assemblies:
-        other = stored.get(a.name, set()) - {a.geometry_hash}
-        if other:
-            raise InputError(f"--out {out}: assembly {a.name!r} in the dataset has other geometry "
-                             f"({sorted(other)[0]} != {a.geometry_hash}); was {a.source} changed? "
-                             f"choose another --out")
-
-
-def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) -> LabelPlan:
-    """Check every input and decide what each assembly contributes. Raises ``InputError``;
-    writes nothing. Enumerates nothing beyond a bounded count per assembly."""
-    started = time.perf_counter()
-    if not cfg.assemblies:
-        raise InputError("no assembly given")
-    if cfg.trials < 1:
-        raise InputError(f"--trials must be >= 1, not {cfg.trials}")
-    if cfg.workers is not None and cfg.workers < 1:
-        raise InputError(f"--workers must be >= 1, not {cfg.workers}")
-    if cfg.max_ops_per_assembly is not None and cfg.max_ops_per_assembly < 1:
-        raise InputError(f"--max-ops-per-assembly must be >= 1, not {cfg.max_ops_per_assembly}")
-    if cfg.directions_per_range < 1:
-        raise InputError(f"--directions-per-range must be >= 1, not {cfg.directions_per_range}")
-    if cfg.mode not in MODES:
-        raise InputError(f"--mode must be one of {', '.join(MODES)}, not {cfg.mode!r}")
-    if not (0 <= int(cfg.seed) < 2 ** 63):
-        raise InputError(f"--seed must be in [0, 2**63), not {cfg.seed}")
-    if cfg.flush_rows < 1 or cfg.flush_seconds <= 0 or cfg.first_flush_seconds <= 0:
-        raise InputError("flush_rows must be >= 1 and flush_seconds, first_flush_seconds > 0")
-
-    assemblies: list[Assembly] = []
-    names: dict[str, str] = {}
-    for path in cfg.assemblies:
-        a = load_assembly(path)  # AssemblyError (an InputError): missing file, invalid geometry
-        if a.name in names:
-            if a.geometry_hash == names[a.name]:
-                continue  # the same assembly twice
-            raise InputError(f"{path}: assembly name {a.name!r} is used by another assembly "
-                             f"with different geometry in this command")
-        names[a.name] = a.geometry_hash
-        assemblies.append(a)
-
-    out = Path(cfg.out)
-    _check_out_dir(out)
-    params_cls = resolve(cfg.params_factory)
-    try:
-        params = params_cls(trials=int(cfg.trials))
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"invalid simulator parameters: {exc}") from None
-    new = _check_meta(out, cfg.seed, params)
-    _check_geometry(out, assemblies)
-
-    selections: dict[str, Selection] = {}
-    for a in assemblies:
-        status(f"counting {a.name}")
-        # TooManyOperations (an InputError): uncapped and beyond the budget, refused at once
-        selections[a.name] = select_operations(a, cfg.max_ops_per_assembly, cfg.seed, cfg.mode,
-                                               cfg.directions_per_range)
-    return LabelPlan(config=cfg, assemblies=assemblies, params=params, selections=selections,
-                     existing_keys=existing_keys(out), new_dataset=new, started=started)
-
 
 # -- running ------------------------------------------------------------------------------------
 @contextlib.contextmanager
@@ -312,43 +107,12 @@ def _progress(enabled: bool, total: int):
                     speed_estimate_period=60.0)
 
 
-def _jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], None]) -> Iterator[Job]:
-    """The jobs of every selection, assembly after assembly, lazily; skips what is already in the
-    dataset and every assembly in ``summary.failed``. A failing enumeration fails its assembly only."""
-    fp = plan.params.fingerprint()
-    seed = plan.config.seed
-    existing = plan.existing_keys
-    for a in plan.assemblies:
-        gh = a.geometry_hash
-        seen: set[str] = set()  # this assembly's keys (its selection is distinct by construction)
-        try:
-            for op in plan.selections[a.name]:
-                if a.name in summary.failed:
-                    break
-                key = label_key(op, gh, fp, seed)
-                if key in seen:
-                    continue
-                seen.add(key)
-                if key in existing:
-                    summary.existing += 1
-                    skipped(1)
-                    continue
-                yield Job(a, op, key, label_seed(op, gh, fp, seed))
-        except (RapError, ValueError, ArithmeticError, RecursionError, MemoryError) as exc:
-            summary.failed.setdefault(a.name, f"selecting operations failed: {_one_line(exc)}")
-
-
 def _peak_rss_mib() -> float:
     """Peak resident memory of this process (the driver; Ray's workers are other processes)."""
     import resource
 
     kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
     return kib / 1024.0
-
-
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return text[-1] if text else type(exc).__name__
 
 
 def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
@@ -408,7 +172,7 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
             t0 = time.perf_counter()  # the rate counts labelling time only
             with progress:
                 bar = progress.add_task("label", total=plan.total)
-                jobs = tracked(_jobs(plan, summary, lambda k: progress.advance(bar, k)))
+                jobs = tracked(iter_jobs(plan, summary, lambda k: progress.advance(bar, k)))
                 for res in pool.stream(jobs, plan.params, images=True, errors="collect"):
                     if res.error is not None:
                         summary.failed.setdefault(res.assembly, res.error)

@@ -42,6 +42,7 @@ from rap.errors import RapError
 from rap.operation import Operation
 
 from rap.farm.actors import Backend, BatchResult, SimTask, SimWorker
+from rap.farm.selection import Job
 from rap.farm.runtime import cluster_cpus
 
 __all__ = ["SimPool", "Job", "Scored", "FarmError", "params_json"]
@@ -61,16 +62,6 @@ class FarmError(RapError):
 def params_json(params: Any) -> str:
     """Canonical JSON text of simulator parameters (stored in every row)."""
     return json.dumps(params.to_dict(), sort_keys=True, separators=(",", ":"))
-
-
-@dataclass(frozen=True)
-class Job:
-    """One operation to label: its assembly, content key (dataset identity) and simulator seed."""
-
-    assembly: Assembly
-    operation: Operation
-    key: str
-    seed: int
 
 
 @dataclass(frozen=True)

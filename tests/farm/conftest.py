@@ -75,7 +75,7 @@ def fake_enum(monkeypatch):
     """Always the stand-in selection (small, known operation lists)."""
     from tests.farm import standin
 
-    import rap.farm.driver as driver
+    import rap.farm.selection as selection
 
-    monkeypatch.setattr(driver, "select_operations", standin.select_operations)
+    monkeypatch.setattr(selection, "select_operations", standin.select_operations)
     return standin

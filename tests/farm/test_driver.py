@@ -137,9 +137,10 @@ import ray
 ray.init(address={address!r}, runtime_env={{"env_vars": {{"PYTHONPATH": {root!r}}}}},
          log_to_driver=False)
 import rap.farm.driver as driver
+import rap.farm.selection as selection
 from tests.farm import standin
 from tests.farm.conftest import FAKE
-driver.select_operations = standin.select_operations
+selection.select_operations = standin.select_operations
 cfg = driver.LabelConfig(assemblies={assemblies!r}, out={out!r}, trials=3, seed=5, backend=FAKE,
                          progress=False, flush_rows=3, workers=2, batch_size=1,
                          params_factory="tests.farm.standin:slow_params")
