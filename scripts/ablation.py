@@ -2,6 +2,7 @@
 
     python scripts/ablation.py [--dataset datasets/corpus] [--out reports/ablation]
                                [--max-rows 20000] [--epochs 3] [--seed 0] [--variants a,b,...]
+                               [--device cpu|cuda] [--batch-size 64]
 
 Folds: each reference assembly held out (the paper's Table I) and each generated family held out,
 every fold trained on a seeded sample of ``--max-rows`` rows of everything else (the same sample
@@ -51,6 +52,8 @@ def main(argv=None) -> None:
     ap.add_argument("--epochs", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--device", default="cpu", help="cpu, cuda or auto")
+    ap.add_argument("--batch-size", type=int, default=64)
     ap.add_argument("--variants", default=None, help="comma-separated indices (default: all)")
     args = ap.parse_args(argv)
 
@@ -79,7 +82,7 @@ def main(argv=None) -> None:
         done = json.loads(path.read_text()) if path.exists() else {"variant": name, "folds": {}}
         model_config, config = recipe("paper", epochs=args.epochs, seed=args.seed,
                                       max_rows=args.max_rows, num_threads=args.threads,
-                                      device="cpu", **acc)
+                                      device=args.device, batch_size=args.batch_size, **acc)
         for kind, test in plan:
             key = f"{kind}:{test}"
             if key in done["folds"]:

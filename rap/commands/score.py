@@ -16,6 +16,9 @@ def score_command(
     by: str = typer.Option("assembly", "--by", help="Rows per assembly or per family."),
     out: Path = typer.Option(None, "--out", "-o", help="Also write score.json and score.md here."),
     device: str = typer.Option("cpu", "--device", help="cpu, cuda or auto."),
+    only: list[str] = typer.Option(None, "--only",
+                                   help="Only the rows of this assembly (family with --by family); "
+                                        "repeatable."),
 ):
     """Accuracy, per-class accuracy, ECE and the noise ceiling of MODEL on DATASET, per assembly
     (or family) and overall."""
@@ -25,9 +28,9 @@ def score_command(
 
     if by not in ("assembly", "family"):
         raise InputError(f"--by {by!r}: assembly or family")
-    rows = score_checkpoint(model, dataset, by=by, device=device)
+    rows = score_checkpoint(model, dataset, by=by, device=device, only=only or None)
     if not rows:
-        raise InputError(f"{dataset}: no rows")
+        raise InputError(f"{dataset}: no rows" + (f" of {', '.join(only)}" if only else ""))
     from rich.table import Table
 
     pct = lambda x: "–" if x != x else f"{100 * x:.1f}"  # noqa: E731 (NaN: empty class)

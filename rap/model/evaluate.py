@@ -19,7 +19,7 @@ import json
 import math
 import time
 from pathlib import Path
-from typing import Callable, Iterable, Iterator
+from typing import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -238,10 +238,12 @@ def write_report(folds: list[dict], out_dir: str | Path, title: str, notes: dict
 
 
 def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "assembly",
-                     device: str = "cpu", batch_size: int = 512) -> list[dict]:
+                     device: str = "cpu", batch_size: int = 512,
+                     only: Sequence[str] | None = None) -> list[dict]:
     """Metrics of an existing checkpoint on a dataset, without training: one row per assembly
-    (``by="assembly"``) or per family (``by="family"``) plus an ``all`` row. Streams the dataset
-    (O(batch) memory besides the per-row labels and probabilities)."""
+    (``by="assembly"``) or per family (``by="family"``) plus an ``all`` row; ``only`` keeps the
+    rows of those assemblies (families). Streams the dataset (O(batch) memory besides the per-row
+    labels and probabilities)."""
     from rap.dataset import decode_images, iter_batches
     from rap.model.metrics import classification_metrics
     from rap.model.predict import Predictor
@@ -251,8 +253,11 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
         raise ValueError(f"by must be one of {KINDS}")
     pred = Predictor.load(model_path, device=device)
     groups, scores, trials, probs = [], [], [], []
+    import pyarrow.compute as pc
+
+    keep = None if not only else pc.field(by).isin(list(only))
     for rb in iter_batches(root, columns=["assembly", "family", "score", "trials", "image"],
-                           batch_size=batch_size):
+                           batch_size=batch_size, filter=keep):
         if not rb.num_rows:
             continue
         g = rb.column(by).to_pylist()
