@@ -159,7 +159,7 @@ def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: Si
             rows.append(row)
             log(f"{asm.name:14s} {method:8s} R={'-' if r is None else f'{r:.4f}'} "
                 f"plan {res.seconds:.2f} s, {row.simulations} simulations"
-                + (f", {row.fallbacks}/{row.decisions} fallbacks" if cnn_method else ""))
+                + (f", {row.fallbacks}/{row.decisions} fallbacks" if row.decisions is not None else ""))
             if res.status is not PlanStatus.FOUND:
                 log(f"  {res.status.value}: {res.message}")
     return rows

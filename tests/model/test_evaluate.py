@@ -100,4 +100,7 @@ def test_binomial_head_with_calibration_learns_and_scores(family_dataset, tmp_pa
     rows = score_checkpoint(path, family_dataset, by="family")
     assert [r["family"] for r in rows] == ["pegs", "reference", "walls", "all"]
     assert rows[1]["accuracy"] == pytest.approx(res.metrics["holdout"]["accuracy"])
+    only = score_checkpoint(path, family_dataset, by="family", only=["reference"])
+    assert [r["family"] for r in only] == ["reference", "all"]  # the other families' rows are skipped
+    assert only[0] == rows[1] and only[1]["rows"] == rows[1]["rows"]
     assert ModelConfig.from_dict(pred.config.to_dict()) == cfg
