@@ -153,9 +153,10 @@ def _local_workers(workers: int | None) -> int:
 def plan_command(
     assembly: Path = typer.Argument(..., help="Assembly JSON file."),
     model: Path = typer.Option(None, "--model", help="CNN checkpoint [default: the shipped model]."),
-    method: str = typer.Option("rap", "--method", help="rap | sim | optimal | random | search "
-                               "(search: the best product of the model's scores over every "
-                               "sequence, dynamic programming or a beam)."),
+    method: str = typer.Option("search", "--method", help="search | rap | sim | optimal | random "
+                               "(search, the default: the best product of the model's scores "
+                               "over every sequence, dynamic programming or a beam; rap: the "
+                               "paper's greedy planner)."),
     out: Path = typer.Option(None, "--out", "-o", help="Write the plan as JSON here."),
     picture: Path = typer.Option(None, "--picture", help="Storyboard of the plan (.png or .svg)."),
     address: str = typer.Option(None, "--address", help="Plan on this Ray cluster (HOST:PORT or "

@@ -23,7 +23,7 @@ from decimal import Decimal, InvalidOperation
 from rap.assembly import AssemblyError
 from rap.io import parse_assembly
 from rap.errors import InputError
-from rap.plan.methods import METHODS
+from rap.plan.methods import DEFAULT_METHOD, METHODS
 from rap.seeds import DEFAULT_ROOT_SEED
 
 __all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "is_loopback", "REQUEST_KEYS",
@@ -108,7 +108,7 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
         raise BadRequest(400, f"unknown key {unknown[0]!r} (expected assembly, method, seed)")
     if "assembly" not in doc:
         raise BadRequest(400, "missing key 'assembly' (the assembly JSON object)")
-    method = doc.get("method", "rap")
+    method = doc.get("method", DEFAULT_METHOD)
     if not isinstance(method, str) or method not in METHODS:
         raise BadRequest(400, f"method {method!r}: choose one of {', '.join(METHODS)}")
     seed = doc.get("seed", DEFAULT_ROOT_SEED)

@@ -11,7 +11,7 @@ Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``)
 * ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
   actor has started (before that, Serve answers 503 or the connection is refused).
 * ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
-  "random"|"search" (default "rap"), "seed": <int> (optional)}``. 200 with exactly the document that
+  "random"|"search" (default "search"), "seed": <int> (optional)}``. 200 with exactly the document that
   ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
   ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
   or ``"feasible": null`` when the request's budget (simulations, seconds) ran out. The header
@@ -67,7 +67,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from rap import __version__
 from rap.errors import InputError, RapError
-from rap.plan.methods import METHODS
+from rap.plan.methods import DEFAULT_METHOD, METHODS
 from rap.plan.scorers import Budget
 from rap.seeds import DEFAULT_ROOT_SEED
 
@@ -102,7 +102,7 @@ _PLAN_BODY_SCHEMA = {
             "properties": {
                 "assembly": {"type": "object", "description": "An assembly file's JSON: "
                              "{\"name\": ..., \"parts\": [{\"id\", \"polygon\", \"holes\"}]}"},
-                "method": {"type": "string", "enum": list(METHODS), "default": "rap"},
+                "method": {"type": "string", "enum": list(METHODS), "default": DEFAULT_METHOD},
                 "seed": {"type": "integer", "description": "Root seed of the simulator's "
                          "randomness", "default": DEFAULT_ROOT_SEED}}}}},
     },

@@ -10,9 +10,13 @@ from rap.errors import InputError
 from rap.plan.planners import OptimalPlanner, Planner, RandomPlanner, RapPlanner, SimPlanner
 from rap.plan.search import DEFAULT_BEAM, SearchPlanner
 
-__all__ = ["METHODS", "make_planner"]
+__all__ = ["METHODS", "DEFAULT_METHOD", "make_planner"]
 
 METHODS = ("rap", "sim", "optimal", "random", "search")
+# What `plan` and the service use when no method is named: on 14 assemblies held out from the
+# models' training, search was more robust than every RAP variant and than simulator-only greedy,
+# at about RAP's planning time (docs/RESULTS.md, "Planning on held-out assemblies").
+DEFAULT_METHOD = "search"
 
 
 def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None,

@@ -259,7 +259,7 @@ def test_plan_server_prints_and_writes_what_the_service_planned(service, tmp_pat
     p = _cli(src, "--server", service, "--token", TOKEN, "--seed", "5", "--out", out,
              "--picture", pic, cwd=tmp_path)
     assert p.returncode == 0, p.stderr
-    assert "robustness R" in p.stdout and "hexagon: rap plan" in p.stdout
+    assert "robustness R" in p.stdout and "hexagon: search plan" in p.stdout  # the default method
     status, doc, _ = _call(service, "/plan", _body(json.loads(src.read_text()), seed=5))
     assert _same_plan(json.loads(out.read_text()), doc)
     assert pic.stat().st_size > 1000
