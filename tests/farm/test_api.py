@@ -20,7 +20,7 @@ def test_a_request_is_read_exactly():
     text = ('{"assembly": {"parts": [{"id": "a", "polygon": [[0, 0], [0.1, 0], [0.1, 1], [0, 1]]},'
             '{"id": "b", "polygon": [[0.1, 0], [0.3, 0], [0.3, 1], [0.1, 1]]}]}, "seed": -4}')
     asm, method, seed = parse_plan_request(text.encode())
-    assert (asm.name, method, seed) == ("assembly", "rap", -4)
+    assert (asm.name, method, seed) == ("assembly", "search", -4)  # the default method
     assert str(asm.part("a").outer[1][0]) == "1/10"  # a decimal, not the float 0.1
     asm, method, seed = parse_plan_request(json.dumps({"assembly": SQUARES,
                                                        "method": "optimal"}).encode())
