@@ -47,7 +47,7 @@ from rap.plan.scorers import Budget, BudgetSpent, Scorer
 from rap.seeds import derive_rng
 
 __all__ = ["Planner", "RapPlanner", "SimPlanner", "OptimalPlanner", "RandomPlanner",
-           "evaluate_steps", "assembly_order", "dp_choice", "dead_end",
+           "evaluate_steps", "assembly_order", "dp_choice", "dp_tree", "dead_end",
            "HIGH_PROBABILITY"]
 
 HIGH_PROBABILITY = 0.5  # the CNN's class decision: P(high) >= 0.5 is "high"
@@ -276,6 +276,22 @@ def dp_choice(graph: dict[frozenset, tuple[Operation, ...]],
     return best, arg
 
 
+def dp_tree(graph: dict[frozenset, tuple[Operation, ...]], arg: dict[frozenset, int],
+            whole: frozenset) -> dict[frozenset, tuple[int, Operation]]:
+    """The disassembly tree that ``arg`` (from ``dp_choice``) picks below ``whole``: subassembly ->
+    (candidate index, operation) for every composite subassembly of it. O(parts)."""
+    tree = {}
+    stack = [whole]
+    while stack:
+        s = stack.pop()
+        if len(s) < 2:
+            continue
+        op = graph[s][arg[s]]
+        tree[s] = (arg[s], op)
+        stack += [op.moving, op.fixed]
+    return tree
+
+
 def dead_end(graph: dict[frozenset, tuple[Operation, ...]], whole: frozenset) -> frozenset:
     """The subassembly to blame when no sequence exists: the whole when it has no candidate,
     else the smallest interlocked subassembly reached."""
@@ -310,15 +326,8 @@ class OptimalPlanner(Planner):
 
         for s in sorted(graph, key=len):
             trees[s] = sum(t(op.moving) * t(op.fixed) for op in graph[s])
-        choice = {}
-        stack = [whole]
-        while stack:
-            s = stack.pop()
-            if len(s) < 2:
-                continue
-            op = graph[s][arg[s]]
-            choice[s] = PlanStep.of(op, "sim", score=score_of[s][arg[s]])
-            stack += [op.moving, op.fixed]
+        choice = {sub: PlanStep.of(op, "sim", score=score_of[sub][i])
+                  for sub, (i, op) in dp_tree(graph, arg, whole).items()}
         n_ex = trees[whole]
         terms = len(flat)
         stats.update(subassemblies=len(graph), operations=len(flat), dp_evaluations=terms,

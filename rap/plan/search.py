@@ -35,7 +35,7 @@ import math
 from dataclasses import dataclass
 
 from rap.operation import Operation
-from rap.plan.planners import Planner, _Interlocked, assembly_order, dead_end, dp_choice
+from rap.plan.planners import Planner, _Interlocked, assembly_order, dead_end, dp_choice, dp_tree
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStep
 from rap.plan.scorers import Scorer
@@ -147,15 +147,7 @@ class SearchPlanner(Planner):
             best, arg = dp_choice(graph, score_of)
             if best.get(whole, 0.0) <= 0.0:
                 raise _Interlocked(dead_end(graph, whole))
-            choice = {}
-            stack = [whole]
-            while stack:
-                s = stack.pop()
-                if len(s) < 2:
-                    continue
-                op = graph[s][arg[s]]
-                choice[s] = op
-                stack += [op.moving, op.fixed]
+            choice = {sub: op for sub, (_, op) in dp_tree(graph, arg, whole).items()}
             todo = [op for op in choice.values() if scores.problem.key(op) not in scores.simulated]
             if not todo or spent >= self.simulations:
                 stats["predicted_robustness"] = best[whole]
