@@ -49,7 +49,8 @@ def pack(dataset: Path, out: Path) -> None:
     print(f"{t.num_rows} rows -> {out / LITE} ({(out / LITE).stat().st_size / 2**20:.1f} MiB)")
 
 
-_ASSEMBLIES: dict = {}
+_ASSEMBLIES: dict = {}  # per worker process: name -> Assembly
+_PARAMS: dict = {}  # params JSON text -> SimParams
 
 
 def _render(args):
@@ -62,8 +63,10 @@ def _render(args):
     a = _ASSEMBLIES.get(name)
     if a is None:
         a = _ASSEMBLIES[name] = load_assembly(Path(root) / "_assemblies" / f"{name}.json")
+    params = _PARAMS.get(params_json)
+    if params is None:
+        params = _PARAMS[params_json] = SimParams.from_dict(json.loads(params_json))
     op = Operation(frozenset(moving.split(",")), frozenset(fixed.split(",")), (dx, dy))
-    params = SimParams.from_dict(json.loads(params_json))
     return render_pair(a, op, params=params, size=64).astype("uint8").tobytes()
 
 

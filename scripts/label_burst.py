@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from rap.dataset import SCHEMA_VERSION, DatasetMeta, open_dataset, rows_to_table, write_meta, write_shard  # noqa: E402
-from rap.farm.rows import Backend, label_rows, resolve  # noqa: E402
+from rap.farm.rows import Backend, label_rows, params_json, resolve  # noqa: E402
 from rap.farm.selection import LabelConfig, LabelSummary, iter_jobs, prepare  # noqa: E402
 
 BATCH = 8  # operations per task
@@ -49,14 +49,10 @@ def _init() -> None:
     _FUNCS["node"] = os.uname().nodename
 
 
-def _task(assembly, ops, keys, seeds, params, params_json):
-    rows, _, _ = label_rows(assembly, ops, keys, seeds, params, params_json,
+def _task(assembly, ops, keys, seeds, params, pj):
+    rows, _, _ = label_rows(assembly, ops, keys, seeds, params, pj,
                             simulate=_FUNCS["simulate"], render=_FUNCS["render"], node=_FUNCS["node"])
     return rows
-
-
-def _params_json(params) -> str:
-    return json.dumps(params.to_dict(), sort_keys=True, separators=(",", ":"))
 
 
 def _batches(jobs, size):
@@ -74,20 +70,18 @@ def label(plan, processes: int, deadline: float, out: Path | None, flush_rows: i
           limit: int | None = None) -> list[dict]:
     """Label the plan's jobs until ``deadline`` (monotonic); commit to ``out`` (or return rows)."""
     summary = LabelSummary(out=str(out), total=plan.total)
-    pj = _params_json(plan.params)
+    pj = params_json(plan.params)
     jobs = iter_jobs(plan, summary, lambda k: None)
     if limit is not None:
         jobs = (j for _, j in zip(range(limit), jobs))
     batches = _batches(jobs, BATCH)
-    buffer: list[dict] = []
-    kept: list[dict] = []
+    buffer: list[dict] = []  # rows not yet committed (all of them when out is None)
     done, t0, last = 0, time.monotonic(), time.monotonic()
 
     def flush():
         if buffer and out is not None:
             write_shard(out, rows_to_table(buffer))
-        kept.extend(buffer if out is None else [])
-        buffer.clear()
+            buffer.clear()
 
     with ProcessPoolExecutor(processes, mp_context=get_context("fork"), initializer=_init) as ex:
         inflight = set()
@@ -117,7 +111,7 @@ def label(plan, processes: int, deadline: float, out: Path | None, flush_rows: i
     dt = time.monotonic() - t0
     print(f"labelled {done} rows in {dt:.0f} s: {done / max(dt, 1e-9):.1f} ops/s on {processes} "
           f"processes ({'all done' if exhausted else 'stopped at the deadline'})", flush=True)
-    return kept
+    return buffer
 
 
 def main() -> None:

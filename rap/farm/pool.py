@@ -26,7 +26,6 @@ Design (Ray's core patterns):
 
 from __future__ import annotations
 
-import json
 import math
 import threading
 from dataclasses import dataclass
@@ -42,6 +41,7 @@ from rap.errors import RapError
 from rap.operation import Operation
 
 from rap.farm.actors import Backend, BatchResult, SimTask, SimWorker
+from rap.farm.rows import params_json
 from rap.farm.selection import Job
 from rap.farm.runtime import cluster_cpus
 
@@ -57,11 +57,6 @@ class FarmError(RapError):
     """A batch that could not be labelled (exit status 1 is for plans; this one is 3)."""
 
     exit_code = 3
-
-
-def params_json(params: Any) -> str:
-    """Canonical JSON text of simulator parameters (stored in every row)."""
-    return json.dumps(params.to_dict(), sort_keys=True, separators=(",", ":"))
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ row does not depend on the executor. A label depends only on the operation's see
 from __future__ import annotations
 
 import importlib
+import json
 import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
@@ -18,7 +19,7 @@ from rap import __version__
 from rap.dataset import IMAGE_SIZE
 from rap.operation import Operation, subset_key
 
-__all__ = ["Backend", "resolve", "label_rows"]
+__all__ = ["Backend", "resolve", "params_json", "label_rows"]
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,11 @@ def resolve(path: str) -> Callable:
     for a in attr.split("."):
         obj = getattr(obj, a)
     return obj
+
+
+def params_json(params: Any) -> str:
+    """Canonical JSON text of simulator parameters (stored in every row)."""
+    return json.dumps(params.to_dict(), sort_keys=True, separators=(",", ":"))
 
 
 def label_rows(assembly: Any, operations: Sequence[Operation], keys: Sequence[str],
