@@ -182,6 +182,9 @@ def plan_command(
                                    "beyond the exact search's budget [default: 8]."),
     simulations: int = typer.Option(None, "--simulations", min=0, help="Method search: "
                                     "simulations to spend while planning [default: 0]."),
+    trust: float = typer.Option(None, "--trust", min=0.0, max=1.0, help="Method search: "
+                                "operations predicted at this score or more are not simulated "
+                                "while planning [default: none trusted]."),
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
                                 "actors with --address [default: all CPUs]."),
 ):
@@ -208,7 +211,8 @@ def plan_command(
             ("--trials", trials, 100), ("--space", space, "online"), ("--cache", cache, None),
             ("--no-cache", no_cache, False), ("--samples", samples, 50),
             ("--workers", workers, None), ("--fallback-k", fallback_k, None),
-            ("--beam-width", beam_width, None), ("--simulations", simulations, None))
+            ("--beam-width", beam_width, None), ("--simulations", simulations, None),
+            ("--trust", trust, None))
             if v != default]
         if given:
             raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
@@ -244,7 +248,7 @@ def plan_command(
             result = _plan_here(asm, method, params, root_seed, space, samples, model_path,
                                 cache_path, _local_workers(workers), err,
                                 dict(fallback_k=fallback_k, beam_width=beam_width,
-                                     simulations=simulations))
+                                     simulations=simulations, trust=trust))
         else:
             import rap.farm.service as service
 
@@ -254,7 +258,8 @@ def plan_command(
             req = service.PlanRequest(asm, method, params, root_seed, space, samples,
                                       planner_options=dict(fallback_k=fallback_k,
                                                            beam_width=beam_width,
-                                                           simulations=simulations))
+                                                           simulations=simulations,
+                                                           trust=trust))
             with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
                 result = service.run_plan(req, model_path=model_path, address=address,
                                           workers=workers,
@@ -297,13 +302,17 @@ def _plan_here(asm, method, params, root_seed, space, samples, model_path, cache
     from rap.plan.problem import PlanningProblem
     from rap.plan.scorers import LocalSimulator, Scorer
 
-    cnn = _load_cnn(model_path) if model_path else None
-    problem = PlanningProblem(asm, params, root_seed, space)
-    if cnn is not None:
-        _familiarity(asm, cnn, space, err, problem=problem)
-    cache_obj = ScoreCache(cache_path)
-    sim = LocalSimulator(processes=workers)
+    # simulation workers first: they load the simulator while this process loads the model,
+    # renders and scores (see LocalSimulator's prestart)
+    sim = LocalSimulator(processes=workers, prestart=True)
     try:
+        cnn = _load_cnn(model_path) if model_path else None
+        problem = PlanningProblem(asm, params, root_seed, space)
+        if cnn is not None:
+            _familiarity(asm, cnn, space, err, problem=problem)
+            if sim.prestarted:
+                cnn.cores_busy = sim.loading
+        cache_obj = ScoreCache(cache_path)
         planner = make_planner(method, samples=samples, **(options or {}))
         result = planner.solve(problem, Scorer(sim, cnn, cache_obj))
     finally:

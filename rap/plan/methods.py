@@ -20,14 +20,15 @@ DEFAULT_METHOD = "search"
 
 
 def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None,
-                 beam_width: int | None = None, simulations: int | None = None) -> Planner:
+                 beam_width: int | None = None, simulations: int | None = None,
+                 trust: float | None = None) -> Planner:
     """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` for RAP (None: all);
-    ``beam_width`` and ``simulations`` for search (None: its defaults)."""
+    ``beam_width``, ``simulations`` and ``trust`` for search (None: its defaults)."""
     if method == "rap":
         return RapPlanner(fallback_k=fallback_k)
     if method == "search":
         return SearchPlanner(beam_width=beam_width or DEFAULT_BEAM,
-                             simulations=simulations or 0)
+                             simulations=simulations or 0, trust=trust)
     if method == "sim":
         return SimPlanner()
     if method == "optimal":

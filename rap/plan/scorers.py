@@ -16,7 +16,10 @@ Simulator backends (``SimBackend``: ``simulate_many(problem, ops) -> list[Cached
 same parameters and root seed): in this process, or, with ``processes > 1``, a batch of at least
 ``min_batch`` (``MIN_PROCESS_BATCH``, 8) operations spread over that many forked worker processes,
 started at the first such batch (well under a second, against 10-30 s for a local Ray) and kept
-until ``close()``.
+until ``close()``. With ``prestart=True`` the workers are forked at once and load the compiled
+simulator while the caller plans (a one-off ``rap-farm plan``: the ~0.75 s of loading and the
+~0.35 s that an interpreter which loaded numba takes to exit stay off the planner's core); every
+batch then goes to them.
 CNN backend: ``PredictorCnn`` renders each operation (``rap.render.images.render_pair``) and asks a
 predictor: ``rap.model.predict.Predictor`` (torch), or with ``engine="auto"`` the torch-free
 forward pass of ``rap.plan.fastcnn`` when it runs the checkpoint exactly (no torch import: seconds
@@ -53,6 +56,13 @@ IMAGE_SIZE = 64
 #: the compiled simulator (~0.3 s) and competes with the planner for the cores, so a handful of
 #: operations (a greedy plan's evaluation: one per step) is simulated faster in the process itself
 MIN_PROCESS_BATCH = 8
+#: niceness of prestarted workers: while they load the simulator the parent plans on the same
+#: cores and comes first (a warm score cache needs no simulation at all: 1.9 s instead of 2.4 s
+#: for a 7-part plan on 2 cores); once the parent waits for their results they have the machine
+WARM_NICE = 10
+#: images per forward pass while ``PredictorCnn.cores_busy`` is consulted (a multiple of
+#: ``rap.plan.fastcnn.CHUNK``, so that the passes are the same)
+SHARE_CHUNK = 256
 
 
 class SimBackend(Protocol):
@@ -90,67 +100,126 @@ def _simulate_task(args) -> CachedScore:  # runs in a worker process
     return _simulate_one(None, *args)
 
 
-def _worker_init() -> None:
-    """Worker processes leave Ctrl-C to the parent, which stops them (no traceback per worker)."""
+def _worker_init(warmed=None) -> None:
+    """Worker processes leave Ctrl-C to the parent, which stops them (no traceback per worker);
+    with a shared counter ``warmed``, load the compiled simulator now rather than at the first
+    operation (at a lower priority), then count this worker as warm."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if warmed is not None:
+        import os
+
+        os.nice(WARM_NICE)
+        from rap.sim.simulator import warm_up
+
+        warm_up()
+        with warmed.get_lock():
+            warmed.value += 1
+
+
+def _noop() -> None:  # submitted once to make a fork pool start its workers
+    return None
 
 
 class LocalSimulator:
     """``rap.sim.simulator.simulate`` on this machine (``simulate`` replaceable): sequentially in
     this process, or over ``processes`` forked workers for batches of ``min_batch`` or more
-    operations (Linux; the real simulator only). Same seeds, same scores either way."""
+    operations (Linux; the real simulator only); with ``prestart``, over ``processes`` workers (one
+    or more) forked now, which load the simulator at once and take every batch. Same seeds, same
+    scores either way. A pool that breaks (a worker killed) is dropped and the batch simulated
+    here."""
 
     def __init__(self, simulate: Callable | None = None, *, processes: int = 1,
-                 min_batch: int = MIN_PROCESS_BATCH):
+                 min_batch: int = MIN_PROCESS_BATCH, prestart: bool = False):
         self._simulate = simulate
         self.processes = max(1, int(processes))
         self.min_batch = max(1, int(min_batch))
         self._executor = None
         self._lock = threading.Lock()
+        self._warmed = None  # shared count of prestarted workers that have loaded the simulator
+        self.prestarted = bool(prestart) and self._can_fork()
+        if self.prestarted:
+            self._pool().submit(_noop)  # a fork pool starts all its workers at the first submit
+
+    def loading(self) -> bool:
+        """True while prestarted workers are still loading the simulator (the caller then leaves
+        them a core: see ``PredictorCnn.cores_busy``)."""
+        warmed = self._warmed
+        return self.prestarted and warmed is not None and warmed.value < self.processes
+
+    def _can_fork(self) -> bool:
+        return self._simulate is None and sys.platform.startswith("linux")
 
     def _pool(self):
-        if self.processes < 2 or self._simulate is not None or not sys.platform.startswith("linux"):
+        if not self._can_fork() or (self.processes < 2 and not self.prestarted):
             return None
         with self._lock:
             if self._executor is None:
                 import multiprocessing
                 from concurrent.futures import ProcessPoolExecutor
 
-                from rap.sim import simulator  # noqa: F401  (imported once, before the fork)
-
-                self._executor = ProcessPoolExecutor(self.processes,
-                                                     mp_context=multiprocessing.get_context("fork"),
-                                                     initializer=_worker_init)
+                ctx = multiprocessing.get_context("fork")
+                if self.prestarted:
+                    self._warmed = ctx.Value("i", 0)
+                else:
+                    from rap.sim import simulator  # noqa: F401  (imported once, before the fork)
+                self._executor = ProcessPoolExecutor(self.processes, mp_context=ctx,
+                                                     initializer=_worker_init,
+                                                     initargs=(self._warmed,))
             return self._executor
 
     def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
         jobs = [(problem.assembly, op, problem.params, problem.seed(op)) for op in ops]
-        pool = self._pool() if len(jobs) >= self.min_batch else None
+        pool = self._pool() if self.prestarted or len(jobs) >= self.min_batch else None
         if pool is not None:
-            return list(pool.map(_simulate_task, jobs))
+            from concurrent.futures.process import BrokenProcessPool
+
+            try:
+                return list(pool.map(_simulate_task, jobs))
+            except BrokenProcessPool:
+                self.close()
+                self.prestarted, self.processes = False, 1
         return [_simulate_one(self._simulate, *j) for j in jobs]
 
     def close(self) -> None:
-        """Stop the worker processes (if any were started)."""
+        """Stop the worker processes (if any were started). Workers still loading the simulator
+        are terminated rather than waited for: they hold nothing that must be kept."""
         with self._lock:
             ex, self._executor = self._executor, None
-        if ex is not None:
-            ex.shutdown(wait=True, cancel_futures=True)
+        if ex is None:
+            return
+        terminate = getattr(ex, "terminate_workers", None)  # Python >= 3.14
+        if terminate is not None:
+            terminate()
+            return
+        processes = list((getattr(ex, "_processes", None) or {}).values())
+        ex.shutdown(wait=False, cancel_futures=True)
+        for proc in processes:
+            proc.terminate()
+        for proc in processes:
+            proc.join()
 
 
 class PredictorCnn:
     """A loaded robustness CNN (``rap.model.predict.Predictor``) plus the renderer.
 
     ``render(assembly, op, size=64) -> uint8 [2, 64, 64]`` defaults to
-    ``rap.render.images.render_pair``."""
+    ``rap.render.images.render_pair``.
+
+    ``cores_busy``: optional ``() -> bool``, asked before each ``SHARE_CHUNK`` images of the numpy
+    engine: while it says True the forward pass runs BLAS on one thread (threadpoolctl), leaving
+    the other cores to processes that share the machine (``LocalSimulator.loading``: prestarted
+    simulation workers; OpenBLAS's second thread spins between calls and starves them). Same
+    results either way."""
 
     def __init__(self, predictor, render: Callable | None = None):
         self.predictor = predictor
         self._render = render
         self._lock = threading.Lock()  # one forward pass at a time (torch threads are shared)
         self.render_seconds = 0.0
+        self.cores_busy: Callable[[], bool] | None = None
+        self._threadpools = None
 
     @classmethod
     def load(cls, path: str | Path, device: str = "cpu", engine: str = "torch") -> "PredictorCnn":
@@ -194,7 +263,7 @@ class PredictorCnn:
         images = self.images(problem, ops)
         self.render_seconds += time.perf_counter() - t
         with self._lock:
-            return np.asarray(self.predictor.prob_high(images), dtype=np.float64)
+            return self._forward("prob_high", images)
 
     def expected_score(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The model's expected success rate of each operation (binomial head; P(high) for the
@@ -203,7 +272,26 @@ class PredictorCnn:
         images = self.images(problem, ops)
         self.render_seconds += time.perf_counter() - t
         with self._lock:
-            return np.asarray(self.predictor.expected_score(images), dtype=np.float64)
+            return self._forward("expected_score", images)
+
+    def _forward(self, what: str, images: np.ndarray) -> np.ndarray:
+        run = getattr(self.predictor, what)
+        busy = self.cores_busy
+        if busy is None or getattr(self.predictor, "engine", None) != "numpy" or not len(images):
+            return np.asarray(run(images), dtype=np.float64)
+        if self._threadpools is None:
+            from threadpoolctl import ThreadpoolController
+
+            self._threadpools = ThreadpoolController()
+        out = []
+        for i in range(0, len(images), SHARE_CHUNK):
+            chunk = images[i:i + SHARE_CHUNK]
+            if busy():
+                with self._threadpools.limit(limits=1, user_api="blas"):
+                    out.append(np.asarray(run(chunk), dtype=np.float64))
+            else:
+                out.append(np.asarray(run(chunk), dtype=np.float64))
+        return np.concatenate(out)
 
 
 @dataclass

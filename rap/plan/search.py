@@ -17,9 +17,12 @@ only where it decides:
    operation key across states; memory is O(beam_width x parts) states plus the cache.
 3. **Simulations where they matter**: up to ``simulations`` fresh simulations (default 0). In
    exact mode, the operations of the chosen sequence that were not simulated yet are simulated
-   (fewest-known first), their scores replace the predictions, and the DP is solved again, until
-   the chosen sequence is fully simulated or the budget is spent. In beam mode the same is done
-   over the final beam's complete sequences (re-ranked by mixed products).
+   (one batch per round), their scores replace the predictions, and the DP is solved again, until
+   every operation of the chosen sequence is simulated or trusted, or the budget is spent. An
+   operation is *trusted* when its predicted score is at least ``trust`` (None: none is): the
+   model is then sure enough that it succeeds (0.97 on the binomial head is P(high) of about 0.9)
+   and a simulation would rarely change the choice. In beam mode the same is done over the final
+   beam's complete sequences (re-ranked by mixed products).
 
 With a perfect model (predictions equal to the simulator's scores) the exact mode returns the
 optimum exactly. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
@@ -105,12 +108,22 @@ class SearchPlanner(Planner):
     name = "search"
 
     def __init__(self, beam_width: int = DEFAULT_BEAM, max_operations: int = DEFAULT_MAX_OPERATIONS,
-                 simulations: int = 0):
+                 simulations: int = 0, trust: float | None = None):
         if beam_width < 1 or max_operations < 1 or simulations < 0:
             raise ValueError("beam_width, max_operations >= 1 and simulations >= 0")
+        if trust is not None and not 0.0 < trust <= 1.0:
+            raise ValueError("trust must lie in (0, 1]")
         self.beam_width = int(beam_width)
         self.max_operations = int(max_operations)
         self.simulations = int(simulations)
+        self.trust = None if trust is None else float(trust)
+
+    def _to_simulate(self, scores: "_Scores", ops) -> list:
+        """The operations of a chosen sequence still worth a simulation: not simulated, and not
+        trusted (predicted score below ``trust``)."""
+        key = scores.problem.key
+        return [op for op in ops if key(op) not in scores.simulated
+                and (self.trust is None or scores.predicted[key(op)] < self.trust)]
 
     def _search(self, problem, scorer, stats):
         whole = problem.whole
@@ -148,7 +161,7 @@ class SearchPlanner(Planner):
             if best.get(whole, 0.0) <= 0.0:
                 raise _Interlocked(dead_end(graph, whole))
             choice = {sub: op for sub, (_, op) in dp_tree(graph, arg, whole).items()}
-            todo = [op for op in choice.values() if scores.problem.key(op) not in scores.simulated]
+            todo = self._to_simulate(scores, choice.values())
             if not todo or spent >= self.simulations:
                 stats["predicted_robustness"] = best[whole]
                 return choice
@@ -193,7 +206,7 @@ class SearchPlanner(Planner):
             ranked = sorted(beam, key=lambda st: (-sum(math.log(max(scores.of(op), 1e-300))
                                                        for _, op in st[3]), st[1]))
             top = ranked[0][3]
-            todo = [op for _, op in top if problem.key(op) not in scores.simulated]
+            todo = self._to_simulate(scores, [op for _, op in top])
             if not todo or spent >= self.simulations:
                 stats["predicted_robustness"] = math.prod(scores.of(op) for _, op in top)
                 return dict(top)

@@ -82,22 +82,33 @@ def view_transform(assembly: Assembly, operation: Operation, params=None, size: 
     return to_pixel, tuple(off)
 
 
-def _draw(layers, size: int) -> np.ndarray:
-    """Rasterise ``[(value, part, translation)]`` anti-aliased; returns uint8 [size, size]."""
-    big = size * SUPERSAMPLE
-    img = Image.new("L", (big, big), 0)
-    draw = ImageDraw.Draw(img)
+def _layers(layers) -> list[tuple]:
+    """``[(value, part, translation, to_pixel)]`` -> drawable items (supersampled pixel rings),
+    computed once so that a part drawn in several images is transformed once."""
     items = []
     for value, part, shift, to_pixel in layers:
         outer = to_pixel(np.array(part.float_outer()) + shift) * SUPERSAMPLE
         holes = [to_pixel(np.array(h) + shift) * SUPERSAMPLE for h in part.float_holes()]
         area = float(np.prod(outer.max(axis=0) - outer.min(axis=0)))
-        items.append((-area, part.id, value, outer, holes))
-    items.sort(key=lambda t: (t[0], t[1]))
-    for _, _, value, outer, holes in items:
-        draw.polygon([tuple(p) for p in outer.tolist()], fill=value)
+        items.append((-area, part.id, value, [tuple(q) for q in outer.tolist()],
+                      [[tuple(q) for q in h.tolist()] for h in holes]))
+    return items
+
+
+def _draw(layers, size: int) -> np.ndarray:
+    """Rasterise ``[(value, part, translation, to_pixel)]`` anti-aliased; uint8 [size, size]."""
+    return _draw_items(_layers(layers), size)
+
+
+def _draw_items(items: list[tuple], size: int) -> np.ndarray:
+    """Rasterise ``_layers`` items, largest box first (ties by part id), holes in background."""
+    big = size * SUPERSAMPLE
+    img = Image.new("L", (big, big), 0)
+    draw = ImageDraw.Draw(img)
+    for _, _, value, outer, holes in sorted(items, key=lambda t: (t[0], t[1])):
+        draw.polygon(outer, fill=value)
         for h in holes:
-            draw.polygon([tuple(p) for p in h.tolist()], fill=0)
+            draw.polygon(h, fill=0)
     return np.asarray(img.resize((size, size), Image.BOX), dtype=np.uint8)
 
 
@@ -106,10 +117,10 @@ def render_pair(assembly: Assembly, operation: Operation, params=None, size: int
     to_pixel, off = view_transform(assembly, operation, params, size)
     zero = np.zeros(2)
     shift = np.array(off)
-    fixed = [(FIXED, part, zero, to_pixel) for part in _parts(assembly, operation.fixed)]
+    fixed = _layers([(FIXED, part, zero, to_pixel) for part in _parts(assembly, operation.fixed)])
     mov = _parts(assembly, operation.moving)
-    start = _draw(fixed + [(MOVING, part, shift, to_pixel) for part in mov], size)
-    goal = _draw(fixed + [(MOVING, part, zero, to_pixel) for part in mov], size)
+    start = _draw_items(fixed + _layers([(MOVING, part, shift, to_pixel) for part in mov]), size)
+    goal = _draw_items(fixed + _layers([(MOVING, part, zero, to_pixel) for part in mov]), size)
     return np.stack([start, goal])
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import asdict, dataclass, replace
+from functools import cached_property
 
 from rap.config import strict_from_dict
 
@@ -93,7 +94,12 @@ class SimParams:
         """Short hex (16 chars) SHA-256 of the sorted JSON of ``to_dict()``.
 
         ``retire`` is excluded: it changes how fast the outcome is computed, never the outcome.
+        Computed once per instance (planners ask for it per operation).
         """
+        return self._fingerprint
+
+    @cached_property
+    def _fingerprint(self) -> str:
         d = self.to_dict()
         d.pop("retire")
         text = json.dumps(d, sort_keys=True, separators=(",", ":"))

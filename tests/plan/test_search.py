@@ -94,3 +94,38 @@ def test_interlocked_assembly_is_infeasible():
     for planner in (SearchPlanner(), SearchPlanner(max_operations=1)):
         r = planner.solve(problem, scorer(TableCnn(lambda op: 0.5)))
         assert r.status is PlanStatus.INFEASIBLE and r.interlocked
+
+
+def _noisy_model(seed: int = 0, sd: float = 0.08, top: float = 1.0):
+    rng = np.random.default_rng(seed)
+    noise = {}
+
+    def noisy(op):  # the truth plus large, fixed noise per operation
+        k = op.key("noise")
+        if k not in noise:
+            noise[k] = float(rng.normal(0, sd))
+        return min(top, max(0.0, hash_score(op) + noise[k]))
+
+    return TableCnn(lambda op: 0.5, noisy)
+
+
+@pytest.mark.parametrize("trust", [0.6, 0.8, 0.95])
+def test_trusted_predictions_are_never_simulated_and_the_rest_converges(trust):
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    s = scorer(_noisy_model())
+    r = SearchPlanner(simulations=10_000, trust=trust).solve(problem, s)
+    assert r.status is PlanStatus.FOUND and check_plan(problem.assembly, r.steps) == []
+    for step in r.steps:  # converged: each step simulated, or predicted at `trust` or more
+        assert (step.source == "sim") != (step.confidence >= trust)
+    untrusted = SearchPlanner(simulations=10_000).solve(problem, scorer(_noisy_model()))
+    assert all(step.source == "sim" for step in untrusted.steps)
+    assert r.stats["search_simulations"] <= untrusted.stats["search_simulations"]
+
+
+def test_trust_above_every_prediction_changes_nothing():
+    problem = PlanningProblem(six("hexagon"), PARAMS)
+    a = SearchPlanner(simulations=12).solve(problem, scorer(_noisy_model(1, top=0.99)))
+    b = SearchPlanner(simulations=12, trust=0.995).solve(problem, scorer(_noisy_model(1, top=0.99)))
+    assert tree(a) == tree(b) and a.stats["search_simulations"] == b.stats["search_simulations"]
+    with pytest.raises(ValueError):
+        SearchPlanner(trust=0.0)

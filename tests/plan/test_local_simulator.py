@@ -1,0 +1,74 @@
+"""LocalSimulator's worker processes: prestarted (a one-off `rap-farm plan`), broken, closed."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from types import SimpleNamespace
+
+import pytest
+
+from rap.plan.problem import PlanningProblem
+from rap.plan.scorers import LocalSimulator
+from rap.sim.params import SimParams
+from tests.plan.cases import ROW3, memory
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
+                                reason="worker processes are forked on Linux only")
+
+
+def _problem():
+    problem = PlanningProblem(memory(ROW3), SimParams(trials=6), root_seed=11)
+    return problem, list(problem.candidates(problem.whole))
+
+
+def test_prestarted_workers_take_every_batch_and_give_the_in_process_scores():
+    problem, ops = _problem()
+    sim = LocalSimulator(processes=2, prestart=True)
+    try:
+        assert sim.prestarted and sim._executor is not None  # forked at construction
+        one = sim.simulate_many(problem, ops[:1])  # a batch of one goes to the workers too
+        pooled = sim.simulate_many(problem, ops)
+    finally:
+        sim.close()
+    here = LocalSimulator().simulate_many(problem, ops)
+    assert pooled == here and one == here[:1]
+
+
+def test_close_stops_workers_that_are_still_loading():
+    sim = LocalSimulator(processes=2, prestart=True)
+    workers = list(sim._executor._processes.values())
+    assert len(workers) == 2
+    sim.close()
+    assert sim._executor is None
+    assert all(not w.is_alive() for w in workers)
+
+
+def test_a_killed_worker_falls_back_to_this_process():
+    problem, ops = _problem()
+    sim = LocalSimulator(processes=2, prestart=True)
+    try:
+        sim.simulate_many(problem, ops[:1])
+        for w in list(sim._executor._processes.values()):
+            os.kill(w.pid, signal.SIGKILL)
+            w.join()
+        scores = sim.simulate_many(problem, ops)
+        assert not sim.prestarted and sim._executor is None
+    finally:
+        sim.close()
+    assert scores == LocalSimulator().simulate_many(problem, ops)
+
+
+def test_an_injected_simulator_is_never_forked():
+    calls = []
+
+    def fake(assembly, op, params, rng):
+        calls.append(op)
+        return SimpleNamespace(score=1.0, successes=params.trials, trials=params.trials)
+
+    problem, ops = _problem()
+    sim = LocalSimulator(fake, processes=2, prestart=True)
+    assert not sim.prestarted and sim._executor is None
+    assert [s.score for s in sim.simulate_many(problem, ops)] == [1.0] * len(ops)
+    assert calls == ops
