@@ -1,0 +1,156 @@
+"""Choose search's ``--trust`` on held-out assemblies without timing anything.
+
+For each (assembly, hold-out model) pair: every operation of the assembly's AND/OR graph gets the
+model's expected score and the simulator's score (the corpus's label where the corpus has that
+operation, else a fresh simulation with the same seed: the same number). ``SearchPlanner`` then
+plans against these tables (a stand-in simulator that looks scores up), for each trust value, and
+the plan's robustness is compared with the optimum's (the DP over the simulator's scores).
+
+    python scripts/search_validation.py --set validation [--trust 0.93,0.95,0.96,0.97,0.98]
+    python scripts/search_validation.py --set test
+
+``validation``: 3 seeds of each of the 9 generated families that have a leave-one-family-out model,
+none of them an experiment (test) assembly; ``test``: the 14 assemblies of `rap-farm experiment`
+in docs/RESULTS.md. The tables are cached in ``--cache`` (default reports/search-validation/);
+building them simulates a few thousand operations (about 15 minutes on 2 cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import pickle
+import statistics
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SEED = 20190527  # the corpus's root seed (datasets/corpus/_rapfarm.json)
+TEST = ["grid", "hexagon", "mixed-square", "pentagons", "rectilinear", "c-shapes-s20",
+        "convex-s26", "fan-s12", "funnels-s2", "hub-s32", "knobs-s27", "packing-s25", "pegs-s5",
+        "polyomino-s33"]
+VALIDATION = ["c-shapes-s10", "c-shapes-s17", "c-shapes-s19", "convex-s11", "convex-s14",
+              "convex-s20", "fan-s1", "fan-s10", "fan-s18", "funnels-s10", "funnels-s11",
+              "funnels-s12", "hub-s0", "hub-s12", "hub-s2", "knobs-s10", "knobs-s16", "knobs-s17",
+              "packing-s11", "packing-s12", "packing-s19", "pegs-s1", "pegs-s15", "pegs-s22",
+              "polyomino-s11", "polyomino-s14", "polyomino-s26"]
+
+
+def model_of(name: str) -> Path:
+    family = name.rsplit("-s", 1)[0] if "-s" in name and name[-1].isdigit() else None
+    stem = f"holdout-family-{family}" if family else f"holdout-{name}"
+    return ROOT / "reports" / "holdout-models" / f"{stem}.pt"
+
+
+def assembly_path(name: str) -> Path:
+    p = ROOT / "assemblies" / f"{name}.json"
+    return p if p.exists() else ROOT / "datasets" / "corpus" / "_assemblies" / f"{name}.json"
+
+
+def problem_of(name: str):
+    from rap.io import load_assembly
+    from rap.plan.problem import PlanningProblem
+    from rap.sim.params import SimParams
+
+    return PlanningProblem(load_assembly(assembly_path(name)), SimParams(), SEED)
+
+
+def tables(name: str, dataset) -> dict:
+    """{"pred": key -> expected score, "truth": key -> simulated score} for every operation."""
+    import pyarrow.dataset as ds
+
+    from rap.plan.scorers import LocalSimulator, PredictorCnn
+    from rap.plan.search import _graph
+
+    problem = problem_of(name)
+    ops = [op for c in _graph(problem, 10**9).values() for op in c]
+    keys = [problem.key(op) for op in ops]
+    t = dataset.to_table(columns=["key", "score"], filter=ds.field("assembly") == name)
+    truth = {k: v for k, v in zip(t["key"].to_pylist(), t["score"].to_pylist())}
+    todo = [op for op, k in zip(ops, keys) if k not in truth]
+    sim = LocalSimulator(processes=2, min_batch=1)
+    try:
+        for op, r in zip(todo, sim.simulate_many(problem, todo)):
+            truth[problem.key(op)] = r.score
+    finally:
+        sim.close()
+    cnn = PredictorCnn.load(model_of(name), engine="auto")
+    pred = dict(zip(keys, map(float, cnn.expected_score(problem, ops))))
+    print(f"  {name}: {len(ops)} operations, {len(todo)} simulated", flush=True)
+    return {"pred": pred, "truth": {k: truth[k] for k in keys}}
+
+
+class _LookupSim:
+    def __init__(self, truth):
+        self.truth = truth
+
+    def simulate_many(self, problem, ops):
+        from rap.plan.cache import CachedScore
+
+        return [CachedScore(self.truth[problem.key(op)], round(self.truth[problem.key(op)] * 100),
+                            100) for op in ops]
+
+
+class _LookupCnn:
+    meta: dict = {}
+
+    def __init__(self, pred):
+        self.pred = pred
+
+    def expected_score(self, problem, ops):
+        return np.array([self.pred[problem.key(op)] for op in ops])
+
+    prob_high = expected_score
+
+
+def evaluate(name: str, tab: dict, trust: float | None, simulations: int) -> tuple[float, int]:
+    """(R / R optimal, simulations while planning) of search on the lookup tables."""
+    from rap.plan.cache import ScoreCache
+    from rap.plan.planners import dp_choice
+    from rap.plan.scorers import Scorer
+    from rap.plan.search import SearchPlanner, _graph
+
+    problem = problem_of(name)
+    graph = _graph(problem, 10**9)
+    best, _ = dp_choice(graph, {s: [tab["truth"][problem.key(op)] for op in c]
+                                for s, c in graph.items()})
+    result = SearchPlanner(simulations=simulations, trust=trust).solve(
+        problem, Scorer(_LookupSim(tab["truth"]), _LookupCnn(tab["pred"]), ScoreCache()))
+    r = math.prod(tab["truth"][problem.key(s.operation)] for s in result.steps)
+    return r / best[problem.whole], int(result.stats["search_simulations"])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--set", choices=("validation", "test"), default="validation")
+    ap.add_argument("--trust", default="0.93,0.95,0.96,0.97,0.98,none")
+    ap.add_argument("--simulations", type=int, default=1000, help="budget per plan")
+    ap.add_argument("--cache", type=Path, default=ROOT / "reports" / "search-validation")
+    a = ap.parse_args()
+    names = VALIDATION if a.set == "validation" else TEST
+    a.cache.mkdir(parents=True, exist_ok=True)
+    path = a.cache / f"{a.set}.pkl"
+    tabs = pickle.loads(path.read_bytes()) if path.exists() else {}
+    missing = [n for n in names if n not in tabs]
+    if missing:
+        import pyarrow.dataset as ds
+
+        dataset = ds.dataset(str(ROOT / "datasets" / "corpus"), format="parquet",
+                             exclude_invalid_files=True)
+        print(f"building score tables for {len(missing)} assemblies ...", flush=True)
+        for n in missing:
+            tabs[n] = tables(n, dataset)
+            path.write_bytes(pickle.dumps(tabs))  # resumable: one assembly at a time
+    print(f"{a.set}: {len(names)} assemblies, search with up to {a.simulations} simulations")
+    print(f"{'trust':>6} {'R/R opt':>8} {'worst':>6} {'sims':>6}")
+    for t in a.trust.split(","):
+        trust = None if t == "none" else float(t)
+        res = [evaluate(n, tabs[n], trust, a.simulations) for n in names]
+        ratios = [r for r, _ in res]
+        print(f"{t:>6} {statistics.mean(ratios):8.3f} {min(ratios):6.3f} "
+              f"{statistics.mean(s for _, s in res):6.1f}")
+
+
+if __name__ == "__main__":
+    main()
