@@ -142,9 +142,9 @@ def render_crop(assembly: Assembly, operation: Operation, params=None, size: int
 
     back = -approach * extent * np.asarray(operation.direction, dtype=float)
     zero = np.zeros(2)
-    fixed = [(FIXED, part, zero, to_pixel) for part in _parts(assembly, operation.fixed)]
-    near = _draw(fixed + [(MOVING, part, back, to_pixel) for part in mov_parts], size)
-    goal = _draw(fixed + [(MOVING, part, zero, to_pixel) for part in mov_parts], size)
+    fixed = _layers([(FIXED, part, zero, to_pixel) for part in _parts(assembly, operation.fixed)])
+    near = _draw_items(fixed + _layers([(MOVING, part, back, to_pixel) for part in mov_parts]), size)
+    goal = _draw_items(fixed + _layers([(MOVING, part, zero, to_pixel) for part in mov_parts]), size)
     return np.stack([near, goal])
 
 
