@@ -201,6 +201,8 @@ def plan_command(
         raise InputError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
     if space not in ("online", "all"):
         raise InputError(f"--space {space!r}: choose online or all")
+    if trust is not None and not 0.0 < trust <= 1.0:
+        raise InputError(f"--trust {trust}: choose a score in (0, 1]")
     _check_suffix(out, "--out", (".json",))
     _check_suffix(picture, "--picture", (".png", ".svg"))
     if no_ray and address:
