@@ -20,9 +20,13 @@ and its own copy of the fixed pieces (on the space's static body), laid out on a
 with collision categories (trial index mod 32) so that trials never touch each other. The control
 loop is compiled (``rap.sim.kernel``, numba) and calls Chipmunk's step and pymunk's batched
 getters/setters directly, returning to Python only when a trial is decided. Decided trials are
-removed from the space (``params.retire``); this never changes an outcome, because the noise is
-drawn as one ``(128, trials)`` block per 128 control steps over all trials in a fixed order and the
-trials do not interact.
+removed from the space (``params.retire``). The noise is drawn as one ``(128, trials)`` block per
+128 control steps over all trials in a fixed order, and trials never touch each other; but they are
+not bit-for-bit independent: the order in which Chipmunk's solver visits one body's contacts follows
+its spatial index, which holds every trial's pieces, so a trial touching several pieces at once can
+end otherwise in a space of other trials (without retirement, or with only some of the trials: 22 of
+90 grid and hexagon operations split in 2-4 parts changed by 1-4 successes). An operation is
+therefore always simulated whole, in one space: the unit of parallel work is the operation.
 
 Determinism: the result depends only on (geometry, operation, params, the rng's state).
 """
