@@ -312,19 +312,22 @@ def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
                               "rows": [r.__dict__ for r in rows]}, indent=2, default=str) + "\n",
                   encoding="utf-8")
 
-    fig, (ax, axt, axp) = plt.subplots(1, 3, figsize=(18, 4.4),
+    wide = 18 + 0.4 * max(0, len(names) - 12)
+    fig, (ax, axt, axp) = plt.subplots(1, 3, figsize=(wide, 4.8),
                                        gridspec_kw={"width_ratios": [3, 2, 2]})
     labels = {"random": "random (mean of 50)", "rap": "RAP", "sim": "sim only", "optimal": "optimal"}
+    cmap = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20")
+    color = {m: cmap(k % cmap.N) for k, m in enumerate(methods)}  # one colour per method
     width = 0.8 / max(1, len(methods))
     for k, m in enumerate(methods):
         xs = [i + (k - (len(methods) - 1) / 2) * width for i in range(len(names))]
         ax.bar(xs, [cell[(n, m)].robustness or 0.0 if (n, m) in cell else 0.0 for n in names],
-               width, label=labels.get(m, m))
+               width, label=labels.get(m, m), color=color[m])
         axt.bar(xs, [cell[(n, m)].seconds if (n, m) in cell else 0.0 for n in names], width,
-                label=labels.get(m, m))
+                label=labels.get(m, m), color=color[m])
     for a in (ax, axt):
         a.set_xticks(range(len(names)))
-        a.set_xticklabels(names, rotation=20)
+        a.set_xticklabels(names, rotation=35, ha="right", fontsize=8)
     ax.set_ylabel("robustness R")
     ax.set_ylim(0, 1.2)
     ax.legend(fontsize=8, loc="upper left", ncols=4, bbox_to_anchor=(0, 1.0), frameon=False)
@@ -332,11 +335,13 @@ def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
     axt.set_yscale("log")
     axt.set_ylabel("planning time (s, log)")
     axt.set_title("Planning time (cold cache)")
-    for m in methods:
-        t, r = ms[m]["mean_seconds"], ms[m]["mean_robustness"]
+    points = sorted((ms[m]["mean_seconds"], ms[m]["mean_robustness"], m) for m in methods)
+    for i, (t, r, m) in enumerate(points):
         if t == t and r == r:
-            axp.scatter([t], [r], s=30)
-            axp.annotate(m, (t, r), textcoords="offset points", xytext=(4, 3), fontsize=8)
+            axp.scatter([t], [r], s=30, color=color[m])
+            # neighbours in time alternate above and below their point, so labels do not collide
+            axp.annotate(m, (t, r), textcoords="offset points", xytext=(4, 3 if i % 2 else -10),
+                         fontsize=8)
     axp.set_xscale("log")
     axp.set_xlabel("mean planning time (s, log)")
     axp.set_ylabel("mean robustness R")
