@@ -56,6 +56,18 @@ def problem_of(name: str):
     return PlanningProblem(load_assembly(assembly_path(name)), SimParams(), SEED)
 
 
+def predictions(name: str, mirror: bool = False) -> dict:
+    """key -> the hold-out model's expected score, for every operation of the graph."""
+    from rap.plan.scorers import PredictorCnn
+    from rap.plan.search import _graph
+
+    problem = problem_of(name)
+    ops = [op for c in _graph(problem, 10**9).values() for op in c]
+    cnn = PredictorCnn.load(model_of(name), engine="auto", mirror=mirror)
+    return dict(zip([problem.key(op) for op in ops],
+                    map(float, cnn.expected_score(problem, ops))))
+
+
 def tables(name: str, dataset) -> dict:
     """{"pred": key -> expected score, "truth": key -> simulated score} for every operation."""
     import pyarrow.dataset as ds
@@ -126,6 +138,8 @@ def main() -> None:
     ap.add_argument("--set", choices=("validation", "test"), default="validation")
     ap.add_argument("--trust", default="0.93,0.95,0.96,0.97,0.98,none")
     ap.add_argument("--simulations", type=int, default=1000, help="budget per plan")
+    ap.add_argument("--mirror", action="store_true",
+                    help="predictions averaged over each pair and its mirror image")
     ap.add_argument("--cache", type=Path, default=ROOT / "reports" / "search-validation")
     a = ap.parse_args()
     names = VALIDATION if a.set == "validation" else TEST
@@ -142,7 +156,16 @@ def main() -> None:
         for n in missing:
             tabs[n] = tables(n, dataset)
             path.write_bytes(pickle.dumps(tabs))  # resumable: one assembly at a time
-    print(f"{a.set}: {len(names)} assemblies, search with up to {a.simulations} simulations")
+    if a.mirror:  # the same simulator scores, mirror-averaged predictions
+        mpath = a.cache / f"{a.set}-mirror.pkl"
+        mirror = pickle.loads(mpath.read_bytes()) if mpath.exists() else {}
+        for n in names:
+            if n not in mirror:
+                mirror[n] = predictions(n, mirror=True)
+                mpath.write_bytes(pickle.dumps(mirror))
+        tabs = {n: {"pred": mirror[n], "truth": tabs[n]["truth"]} for n in names}
+    print(f"{a.set}: {len(names)} assemblies, search with up to {a.simulations} simulations"
+          + (", mirror-averaged predictions" if a.mirror else ""))
     print(f"{'trust':>6} {'R/R opt':>8} {'worst':>6} {'sims':>6}")
     for t in a.trust.split(","):
         trust = None if t == "none" else float(t)

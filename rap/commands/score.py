@@ -19,6 +19,9 @@ def score_command(
     only: list[str] = typer.Option(None, "--only",
                                    help="Only the rows of this assembly (family with --by family); "
                                         "repeatable."),
+    mirror: bool = typer.Option(False, "--mirror",
+                                help="Average the network's outputs over each image pair and its "
+                                     "mirror image (twice the inference)."),
 ):
     """Accuracy, per-class accuracy, ECE and the noise ceiling of MODEL on DATASET, per assembly
     (or family) and overall."""
@@ -28,7 +31,7 @@ def score_command(
 
     if by not in ("assembly", "family"):
         raise InputError(f"--by {by!r}: assembly or family")
-    rows = score_checkpoint(model, dataset, by=by, device=device, only=only or None)
+    rows = score_checkpoint(model, dataset, by=by, device=device, only=only or None, mirror=mirror)
     if not rows:
         raise InputError(f"{dataset}: no rows" + (f" of {', '.join(only)}" if only else ""))
     from rich.table import Table
@@ -50,7 +53,8 @@ def score_command(
         safe = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()}
                 for r in rows]
         (out / "score.json").write_text(json.dumps({"model": str(model), "dataset": str(dataset),
-                                                    "by": by, "rows": safe}, indent=2))
+                                                    "by": by, "mirror": mirror, "rows": safe},
+                                                   indent=2))
         (out / "score.md").write_text("\n".join(lines) + "\n")
         typer.echo(f"wrote {out / 'score.json'}, {out / 'score.md'}")
 

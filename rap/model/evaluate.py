@@ -239,11 +239,12 @@ def write_report(folds: list[dict], out_dir: str | Path, title: str, notes: dict
 
 def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "assembly",
                      device: str = "cpu", batch_size: int = 512,
-                     only: Sequence[str] | None = None) -> list[dict]:
+                     only: Sequence[str] | None = None, mirror: bool = False) -> list[dict]:
     """Metrics of an existing checkpoint on a dataset, without training: one row per assembly
     (``by="assembly"``) or per family (``by="family"``) plus an ``all`` row; ``only`` keeps the
-    rows of those assemblies (families). Streams the dataset (O(batch) memory besides the per-row
-    labels and probabilities)."""
+    rows of those assemblies (families); ``mirror`` averages the outputs over each pair and its
+    mirror image (``rap.model.predict.Predictor``). Streams the dataset (O(batch) memory besides
+    the per-row labels and probabilities)."""
     from rap.dataset import decode_images, iter_batches
     from rap.model.metrics import classification_metrics
     from rap.model.predict import Predictor
@@ -251,7 +252,7 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
 
     if by not in KINDS:
         raise ValueError(f"by must be one of {KINDS}")
-    pred = Predictor.load(model_path, device=device)
+    pred = Predictor.load(model_path, device=device, mirror=mirror)
     groups, scores, trials, probs = [], [], [], []
     import pyarrow.compute as pc
 

@@ -55,21 +55,30 @@ def batch_prob_high(model: RobustnessCNN, images: np.ndarray, device: torch.devi
                               trials, temperature)
 
 
-class Predictor:
-    """A loaded checkpoint ready to score operations."""
+def mirrored(images: np.ndarray) -> np.ndarray:
+    """The left-right mirror of image pairs [N, C, H, W] (every channel): the mirrored operation,
+    which the physics scores the same (the motion stays vertical; friction, contact and the
+    perpendicular noise are symmetric)."""
+    return np.ascontiguousarray(np.asarray(images)[..., ::-1])
 
-    def __init__(self, checkpoint: Checkpoint, device: torch.device):
+
+class Predictor:
+    """A loaded checkpoint ready to score operations. With ``mirror``, the network's outputs are
+    averaged over each pair and its mirror image (test-time augmentation: twice the inference)."""
+
+    def __init__(self, checkpoint: Checkpoint, device: torch.device, mirror: bool = False):
         self.checkpoint = checkpoint
         self.device = device
+        self.mirror = bool(mirror)
         self.model = checkpoint.model.to(device).eval()
         shape = (checkpoint.config.in_channels, checkpoint.config.image_size,
                  checkpoint.config.image_size)
         self.image_shape = shape
 
     @classmethod
-    def load(cls, path: str | Path, device: str = "cpu") -> "Predictor":
+    def load(cls, path: str | Path, device: str = "cpu", mirror: bool = False) -> "Predictor":
         dev = resolve_device(device)
-        return cls(load_checkpoint(path, device=dev), dev)
+        return cls(load_checkpoint(path, device=dev), dev, mirror=mirror)
 
     @property
     def threshold(self) -> float:
@@ -134,7 +143,10 @@ class Predictor:
         if len(images) == 0:
             return np.zeros((0, 2 if self.head == "class" else 1), dtype=np.float64)
         self.model.eval()
-        return batch_outputs(self.model, images, self.device)
+        out = batch_outputs(self.model, images, self.device)
+        if self.mirror:
+            out = (out + batch_outputs(self.model, mirrored(images), self.device)) / 2
+        return out
 
     def expected_score(self, images: np.ndarray) -> np.ndarray:
         """The expected success rate of each operation (binomial head; the class head can only

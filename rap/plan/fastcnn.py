@@ -146,7 +146,8 @@ class FastPredictor:
 
     engine = "numpy"
 
-    def __init__(self, blob: dict, path: str = ""):
+    def __init__(self, blob: dict, path: str = "", mirror: bool = False):
+        self.mirror = bool(mirror)  # average the outputs over each pair and its mirror image
         cfg = blob["config"]
         self.config = dict(cfg)
         self.path = path
@@ -201,6 +202,10 @@ class FastPredictor:
         out = np.zeros((len(images), width), dtype=np.float64)
         for i in range(0, len(images), CHUNK):
             out[i:i + CHUNK] = self._logits(images[i:i + CHUNK])
+            if self.mirror:  # rap.model.predict.mirrored, without importing torch
+                flipped = np.ascontiguousarray(images[i:i + CHUNK, ..., ::-1])
+                out[i:i + CHUNK] += self._logits(flipped)
+                out[i:i + CHUNK] /= 2
         return out
 
     def prob_high(self, images: np.ndarray) -> np.ndarray:

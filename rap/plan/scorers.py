@@ -222,10 +222,12 @@ class PredictorCnn:
         self._threadpools = None
 
     @classmethod
-    def load(cls, path: str | Path, device: str = "cpu", engine: str = "torch") -> "PredictorCnn":
+    def load(cls, path: str | Path, device: str = "cpu", engine: str = "torch",
+             mirror: bool = False) -> "PredictorCnn":
         """``engine``: ``"torch"`` (``rap.model.predict.Predictor``) or ``"auto"``: on the CPU,
         ``rap.plan.fastcnn``'s numpy forward pass when it runs this checkpoint exactly, else torch.
-        Both give the same probabilities to float32 rounding."""
+        Both give the same probabilities to float32 rounding. ``mirror``: average the network's
+        outputs over each pair and its mirror image (twice the forward passes)."""
         if engine not in ("torch", "auto"):
             raise ValueError(f"engine {engine!r}: torch or auto")
         if engine == "auto" and str(device) == "cpu":
@@ -233,10 +235,11 @@ class PredictorCnn:
 
             fast = load_fast_predictor(path)
             if fast is not None:
+                fast.mirror = bool(mirror)
                 return cls(fast)
         from rap.model.predict import Predictor
 
-        return cls(Predictor.load(path, device=device))
+        return cls(Predictor.load(path, device=device, mirror=mirror))
 
     @property
     def meta(self) -> dict:

@@ -57,6 +57,12 @@ def test_score_command_prints_and_writes_per_family(family_dataset, tmp_path):
 
     doc = json.loads((tmp_path / "s" / "score.json").read_text())
     assert [r["family"] for r in doc["rows"]][-1] == "all" and doc["rows"][-1]["rows"] == 5 * 96
+    assert doc["mirror"] is False
+    res = CliRunner().invoke(app, ["score", str(model), str(family_dataset), "--by", "family",
+                                   "--mirror", "--out", str(tmp_path / "m")])
+    assert res.exit_code == 0, res.output
+    mirrored = json.loads((tmp_path / "m" / "score.json").read_text())
+    assert mirrored["mirror"] is True and mirrored["rows"][-1]["rows"] == 5 * 96
 
 
 def test_evaluate_by_family(family_dataset, tmp_path):

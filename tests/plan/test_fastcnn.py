@@ -38,6 +38,25 @@ def test_shipped_model_runs_without_torch_and_agrees_with_torch():
     assert fast.prob_high(images[:0]).shape == (0,)
 
 
+def test_mirror_averaging_is_the_mean_of_both_passes_in_torch_and_numpy():
+    torch_predict = pytest.importorskip("rap.model.predict")
+    from rap.commands.plan import default_model_path
+
+    path = default_model_path()
+    images = _images("hexagon")
+    flipped = np.ascontiguousarray(images[..., ::-1])
+    fast, slow = load_fast_predictor(path), torch_predict.Predictor.load(path)
+    plain, mirror = fast.outputs(images), fast.outputs(flipped)
+    assert not np.allclose(plain, mirror)  # the network is not mirror-symmetric by itself
+    fast.mirror, slow.mirror = True, True
+    np.testing.assert_allclose(fast.outputs(images), (plain + mirror) / 2, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(fast.outputs(images), fast.outputs(flipped), atol=1e-6)  # symmetric
+    np.testing.assert_allclose(fast.prob_high(images), slow.prob_high(images), atol=1e-5)
+    cnn = PredictorCnn.load(path, engine="auto", mirror=True)
+    assert cnn.predictor.engine == "numpy" and cnn.predictor.mirror
+    assert torch_predict.Predictor.load(path, mirror=True).mirror
+
+
 @pytest.mark.parametrize("norm,head,temperature", [("none", "class", 1.0), ("batch", "class", 1.7),
                                                     ("none", "binomial", 1.0),
                                                     ("batch", "binomial", 0.8)])
