@@ -37,7 +37,8 @@ def score_command(
     from rich.table import Table
 
     pct = lambda x: "–" if x != x else f"{100 * x:.1f}"  # noqa: E731 (NaN: empty class)
-    table = Table(title=f"{model.name} on {Path(dataset).resolve().name}")
+    table = Table(title=f"{model.name} on {Path(dataset).resolve().name}"
+                        + (", mirror-averaged" if mirror else ""))
     for col in (by, "rows", "high", "accuracy %", "low %", "high %", "ECE %", "ceiling %"):
         table.add_column(col, justify="left" if col == by else "right")
     lines = [f"| {by} | rows | high | accuracy | low robustness | high robustness | ECE | ceiling |",
