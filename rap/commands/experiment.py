@@ -28,7 +28,8 @@ def experiment_command(
     only: list[str] = typer.Option(None, "--only", help="Only these assemblies (repeatable)."),
     methods: str = typer.Option("random,rap,sim,optimal", "--methods",
                                 help="Comma-separated: random, rap, rap-kK (fallback to the K "
-                                     "most likely candidates), sim, optimal."),
+                                     "most likely candidates), rap-pP (high at P(high) >= P%), "
+                                     "rap-kK-pP, sim, optimal, search, search-wW-sN-tP."),
     epochs: int = typer.Option(8, "--epochs", min=1, help="Epochs for the hold-out CNNs."),
     trials: int = typer.Option(None, "--trials", min=1,
                                help="Simulator trials [default: the dataset's]."),
@@ -46,7 +47,8 @@ def experiment_command(
         raise InputError(f"{dataset}: not a rap-farm dataset (no _rapfarm.json)")
     wanted = [m.strip() for m in methods.split(",") if m.strip()]
     if not wanted:
-        raise InputError(f"--methods: choose from {', '.join(EXPERIMENT_METHODS)} or rap-kK")
+        raise InputError(f"--methods: choose from {', '.join(EXPERIMENT_METHODS)}, rap-kK-pP or "
+                         f"search-...")
     for m in wanted:
         method_planner(m)  # InputError for unknown names
     names = dataset_assemblies(dataset)

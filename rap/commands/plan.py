@@ -178,6 +178,9 @@ def plan_command(
     fallback_k: int = typer.Option(None, "--fallback-k", min=1, help="Method rap: when no "
                                    "candidate is predicted high, simulate only the K most likely "
                                    "[default: every candidate, the paper's rule]."),
+    high_probability: float = typer.Option(None, "--high-probability", help="Method rap: a "
+                                           "candidate counts as predicted high at P(high) >= this "
+                                           "[default: 0.5, the paper's class decision]."),
     beam_width: int = typer.Option(None, "--beam-width", min=1, help="Method search: beam width "
                                    "beyond the exact search's budget [default: 8]."),
     simulations: int = typer.Option(None, "--simulations", min=0, help="Method search: "
@@ -203,6 +206,8 @@ def plan_command(
         raise InputError(f"--space {space!r}: choose online or all")
     if trust is not None and not 0.0 < trust <= 1.0:
         raise InputError(f"--trust {trust}: choose a score in (0, 1]")
+    if high_probability is not None and not 0.0 < high_probability <= 1.0:
+        raise InputError(f"--high-probability {high_probability}: choose a probability in (0, 1]")
     _check_suffix(out, "--out", (".json",))
     _check_suffix(picture, "--picture", (".png", ".svg"))
     if no_ray and address:
@@ -214,7 +219,7 @@ def plan_command(
             ("--no-cache", no_cache, False), ("--samples", samples, 50),
             ("--workers", workers, None), ("--fallback-k", fallback_k, None),
             ("--beam-width", beam_width, None), ("--simulations", simulations, None),
-            ("--trust", trust, None))
+            ("--trust", trust, None), ("--high-probability", high_probability, None))
             if v != default]
         if given:
             raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
@@ -250,7 +255,8 @@ def plan_command(
             result = _plan_here(asm, method, params, root_seed, space, samples, model_path,
                                 cache_path, _local_workers(workers), err,
                                 dict(fallback_k=fallback_k, beam_width=beam_width,
-                                     simulations=simulations, trust=trust))
+                                     simulations=simulations, trust=trust,
+                                     high_probability=high_probability))
         else:
             import rap.farm.service as service
 
@@ -261,7 +267,8 @@ def plan_command(
                                       planner_options=dict(fallback_k=fallback_k,
                                                            beam_width=beam_width,
                                                            simulations=simulations,
-                                                           trust=trust))
+                                                           trust=trust,
+                                                           high_probability=high_probability))
             with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
                 result = service.run_plan(req, model_path=model_path, address=address,
                                           workers=workers,

@@ -41,8 +41,9 @@ EXPERIMENT_METHODS = ("random", "rap", "sim", "optimal")
 
 
 def method_planner(method: str, samples: int = 50):
-    """The planner of a method name: one of ``EXPERIMENT_METHODS``, ``rap-kK`` (RAP whose
-    fallback simulates the K candidates with the highest P(high)), or ``search`` with options
+    """The planner of a method name: one of ``EXPERIMENT_METHODS``, ``rap`` with options ``-kK``
+    (its fallback simulates the K candidates with the highest P(high)) and ``-pP`` (a candidate
+    is confidently high at P(high) >= P percent; default 50), or ``search`` with options
     ``-wW`` (beam width W, used beyond the exact search's budget; ``-w`` alone with ``-b``:
     always the beam), ``-sN`` (N simulations while planning), ``-tP`` (operations predicted at
     P percent or more are trusted, not simulated): e.g. ``search-w2-s10``, ``search-s100-t97``."""
@@ -61,21 +62,31 @@ def method_planner(method: str, samples: int = 50):
             raise InputError(f"method {method!r}: P must lie in 1..100")
         return SearchPlanner(beam_width=opts["w"], simulations=opts["s"], max_operations=opts["b"],
                              trust=None if opts["t"] is None else opts["t"] / 100)
-    if method.startswith("rap-k"):
-        try:
-            k = int(method[5:])
-        except ValueError:
-            raise InputError(f"method {method!r}: rap-kK needs an integer K") from None
-        if k < 1:
+    if method.startswith("rap-"):
+        opts = {"k": None, "p": None}
+        for part in method.split("-")[1:]:
+            key, val = part[:1], part[1:]
+            if key not in opts or not val.isdigit() or opts[key] is not None:
+                raise InputError(f"method {method!r}: RAP options are -kK (an integer K) and -pP "
+                                 f"(a percentage P), as in rap-kK, rap-pP, rap-kK-pP")
+            opts[key] = int(val)
+        if opts["k"] is not None and opts["k"] < 1:
             raise InputError(f"method {method!r}: K must be >= 1")
-        return make_planner("rap", fallback_k=k)
+        if opts["p"] is not None and not 0 < opts["p"] <= 100:
+            raise InputError(f"method {method!r}: P must lie in 1..100")
+        from rap.plan.planners import HIGH_PROBABILITY, RapPlanner
+
+        return RapPlanner(fallback_k=opts["k"],
+                          high_probability=HIGH_PROBABILITY if opts["p"] is None
+                          else opts["p"] / 100)
     if method not in EXPERIMENT_METHODS:
-        raise InputError(f"unknown method {method!r}: {', '.join(EXPERIMENT_METHODS)} or rap-kK")
+        raise InputError(f"unknown method {method!r}: {', '.join(EXPERIMENT_METHODS)}, rap-kK-pP "
+                         f"or search-...")
     return make_planner(method, samples=samples)
 
 
 def uses_cnn(method: str) -> bool:
-    return method in ("rap", "search") or method.startswith(("rap-k", "search-"))
+    return method in ("rap", "search") or method.startswith(("rap-", "search-"))
 
 
 @dataclass

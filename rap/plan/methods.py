@@ -7,7 +7,8 @@ apart from the planner classes lets ``search`` build on ``planners`` without an 
 from __future__ import annotations
 
 from rap.errors import InputError
-from rap.plan.planners import OptimalPlanner, Planner, RandomPlanner, RapPlanner, SimPlanner
+from rap.plan.planners import (HIGH_PROBABILITY, OptimalPlanner, Planner, RandomPlanner,
+                               RapPlanner, SimPlanner)
 from rap.plan.search import DEFAULT_BEAM, SearchPlanner
 
 __all__ = ["METHODS", "DEFAULT_METHOD", "make_planner"]
@@ -21,11 +22,14 @@ DEFAULT_METHOD = "search"
 
 def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None,
                  beam_width: int | None = None, simulations: int | None = None,
-                 trust: float | None = None) -> Planner:
-    """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` for RAP (None: all);
+                 trust: float | None = None, high_probability: float | None = None) -> Planner:
+    """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` (None: all) and
+    ``high_probability`` (None: ``HIGH_PROBABILITY``, the paper's class decision) for RAP;
     ``beam_width``, ``simulations`` and ``trust`` for search (None: its defaults)."""
     if method == "rap":
-        return RapPlanner(fallback_k=fallback_k)
+        return RapPlanner(fallback_k=fallback_k,
+                          high_probability=HIGH_PROBABILITY if high_probability is None
+                          else high_probability)
     if method == "search":
         return SearchPlanner(beam_width=beam_width or DEFAULT_BEAM,
                              simulations=simulations or 0, trust=trust)

@@ -62,6 +62,17 @@ def test_fallback_sweep_methods_and_pareto_table(tmp_path, monkeypatch):
     assert "## Robustness against planning time" in md and "| rap-k3 |" in md
     with pytest.raises(Exception, match="rap-kK"):
         E.run_experiment(ds, [six("triangles")], sim_backend=HashSim(), methods=["rap-kx"])
+    # the confidence threshold: lower -> fewer fallbacks; 100% -> every decision falls back
+    rows = E.run_experiment(ds, [six("triangles")], sim_backend=HashSim(),
+                            methods=["rap-p100", "rap-p20", "rap-k1-p20"], log=lambda s: None)
+    by.update({r.method: r for r in rows})
+    assert by["rap-p100"].robustness == pytest.approx(by["sim"].robustness)
+    assert by["rap-p20"].fallbacks < by["rap"].fallbacks == by["rap-p100"].fallbacks
+    assert by["rap-k1-p20"].fallbacks == by["rap-p20"].fallbacks
+    for bad, why in (("rap-p0", "1..100"), ("rap-p101", "1..100"), ("rap-k0", ">= 1"),
+                     ("rap-k2-k3", "rap-kK"), ("rap-q5", "rap-kK")):
+        with pytest.raises(Exception, match=why):
+            E.method_planner(bad)
 
 
 def test_family_holdout_model_is_found(tmp_path):

@@ -88,3 +88,19 @@ def test_search_simulates_the_untrusted_steps_of_its_plan(tmp_path):
     for value in ("1.5", "0"):
         bad = run(src, "--trust", value, tmp_path=tmp_path)
         assert bad.returncode == 2 and "--trust" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_rap_high_probability_decides_what_counts_as_high(tmp_path):
+    src = write(ROW3, tmp_path / "row3.json")
+    docs = {}
+    for p_high in ("1.0", "0.01"):  # nothing is high: every decision falls back; everything is
+        out = tmp_path / f"plan-{p_high}.json"
+        p = run(src, "--method", "rap", "--high-probability", p_high, "--trials", "8", "--out", out,
+                "--no-cache", tmp_path=tmp_path)
+        assert p.returncode == 0, p.stderr
+        docs[p_high] = json.loads(out.read_text())["steps"]
+    assert all(s["source"] == "sim" for s in docs["1.0"])
+    assert all(s["source"] == "cnn" for s in docs["0.01"])
+    bad = run(src, "--method", "rap", "--high-probability", "0", tmp_path=tmp_path)
+    assert bad.returncode == 2 and "--high-probability" in bad.stderr
+    assert "Traceback" not in bad.stderr
