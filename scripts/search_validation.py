@@ -72,7 +72,7 @@ def tables(name: str, dataset) -> dict:
     """{"pred": key -> expected score, "truth": key -> simulated score} for every operation."""
     import pyarrow.dataset as ds
 
-    from rap.plan.scorers import LocalSimulator, PredictorCnn
+    from rap.plan.scorers import LocalSimulator
     from rap.plan.search import _graph
 
     problem = problem_of(name)
@@ -87,10 +87,8 @@ def tables(name: str, dataset) -> dict:
             truth[problem.key(op)] = r.score
     finally:
         sim.close()
-    cnn = PredictorCnn.load(model_of(name), engine="auto")
-    pred = dict(zip(keys, map(float, cnn.expected_score(problem, ops))))
     print(f"  {name}: {len(ops)} operations, {len(todo)} simulated", flush=True)
-    return {"pred": pred, "truth": {k: truth[k] for k in keys}}
+    return {"pred": predictions(name), "truth": {k: truth[k] for k in keys}}
 
 
 class _LookupSim:

@@ -74,11 +74,8 @@ def method_planner(method: str, samples: int = 50):
             raise InputError(f"method {method!r}: K must be >= 1")
         if opts["p"] is not None and not 0 < opts["p"] <= 100:
             raise InputError(f"method {method!r}: P must lie in 1..100")
-        from rap.plan.planners import HIGH_PROBABILITY, RapPlanner
-
-        return RapPlanner(fallback_k=opts["k"],
-                          high_probability=HIGH_PROBABILITY if opts["p"] is None
-                          else opts["p"] / 100)
+        return make_planner("rap", fallback_k=opts["k"],
+                            high_probability=None if opts["p"] is None else opts["p"] / 100)
     if method not in EXPERIMENT_METHODS:
         raise InputError(f"unknown method {method!r}: {', '.join(EXPERIMENT_METHODS)}, rap-kK-pP "
                          f"or search-...")

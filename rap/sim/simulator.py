@@ -24,9 +24,10 @@ removed from the space (``params.retire``). The noise is drawn as one ``(128, tr
 128 control steps over all trials in a fixed order, and trials never touch each other; but they are
 not bit-for-bit independent: the order in which Chipmunk's solver visits one body's contacts follows
 its spatial index, which holds every trial's pieces, so a trial touching several pieces at once can
-end otherwise in a space of other trials (without retirement, or with only some of the trials: 22 of
-90 grid and hexagon operations split in 2-4 parts changed by 1-4 successes). An operation is
-therefore always simulated whole, in one space: the unit of parallel work is the operation.
+end otherwise in a space of other trials (without retirement; or with only some of the trials: 22
+of 90 splits in 2, 3 or 4 parts of 30 grid, hexagon and pentagons operations changed by up to 4
+successes). An operation is therefore always simulated whole, in one space: the unit of parallel
+work is the operation.
 
 Determinism: the result depends only on (geometry, operation, params, the rng's state).
 """
