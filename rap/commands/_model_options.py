@@ -9,7 +9,8 @@ from __future__ import annotations
 import typer
 
 __all__ = ["RECIPE_OPTION", "HEAD_OPTION", "NORM_OPTION", "AUGMENT_OPTION", "CALIBRATE_OPTION",
-           "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "resolve", "describe"]
+           "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "VIEW_OPTION", "resolve",
+           "describe"]
 
 RECIPE_OPTION = typer.Option(
     "robust", "--recipe",
@@ -25,6 +26,10 @@ LR_OPTION = typer.Option(None, "--lr", help="Override: learning rate (Adam).")
 SCHEDULE_OPTION = typer.Option(None, "--schedule", help="Override: constant or cosine.")
 MAX_ROWS_OPTION = typer.Option(None, "--max-rows", min=0,
                                help="Override: train on a seeded sample of this many rows.")
+VIEW_OPTION = typer.Option(None, "--view",
+                           help="Override: pair (the start/goal images) or pair+crop (and a "
+                                "close-up of the mating region, rendered from the dataset's "
+                                "_assemblies geometry and cached).")
 
 
 def resolve(recipe_name: str, **fields):
@@ -41,4 +46,5 @@ def describe(model_config, config) -> str:
             f"{list(model_config.channels)}, hidden {list(model_config.hidden)}, norm "
             f"{model_config.norm}, head {model_config.head}; {config.epochs} epochs, lr "
             f"{config.lr} ({config.schedule}), augment {config.augment}, calibrate "
-            f"{config.calibrate}" + (f", {config.max_rows} rows" if config.max_rows else ""))
+            f"{config.calibrate}" + (f", {config.max_rows} rows" if config.max_rows else "")
+            + (f", view {model_config.view}" if model_config.view != "pair" else ""))

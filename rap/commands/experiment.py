@@ -1,7 +1,8 @@
 """``rap-farm experiment``: the paper's planning comparison on a labelled dataset.
 
 For each assembly of DATASET (found as ``--assemblies DIR/NAME.json``), a CNN that has not seen it
-(``--models DIR/holdout-NAME.pt``, trained when absent), and RAP vs the sim-only baseline vs the
+(``--models DIR/holdout-NAME.pt``, trained when absent; or ``--model CKPT`` for every assembly,
+refused for an assembly the checkpoint was trained on), and RAP vs the sim-only baseline vs the
 optimum vs the mean of 50 random sequences: robustness and planning time (cold score cache). The
 simulator runs on the Ray pool (local Ray, or ``--address``). Writes ``OUT/results.md``,
 ``OUT/results.json`` and ``OUT/scores.png``.
@@ -25,6 +26,10 @@ def experiment_command(
     models: Path = typer.Option(Path("models"), "--models",
                                 help="Directory of holdout-NAME.pt / holdout-family-FAMILY.pt "
                                      "checkpoints (trained when absent)."),
+    model: Path = typer.Option(None, "--model",
+                               help="One checkpoint for every assembly instead of hold-out "
+                                    "models (e.g. rap/data/default_model.pt on assemblies it was "
+                                    "not trained on; refused for any it was)."),
     only: list[str] = typer.Option(None, "--only", help="Only these assemblies (repeatable)."),
     methods: str = typer.Option("random,rap,sim,optimal", "--methods",
                                 help="Comma-separated: random, rap, rap-kK (fallback to the K "
@@ -65,6 +70,12 @@ def experiment_command(
         files.append(found[0])
     asms = [load_assembly(f) for f in files]
     out = out or Path("reports") / Path(dataset).resolve().name
+    if model is not None:
+        if not Path(model).is_file():
+            raise InputError(f"--model {model}: no such checkpoint")
+        from rap.plan.experiment import check_held_out
+
+        check_held_out(model, asms)
 
     import rap.farm.service as service
     from rap.farm.pool import SimPool
@@ -76,10 +87,12 @@ def experiment_command(
             pool.ready()
             rows = run_experiment(dataset, asms, sim_backend=service.PoolSimulator(pool),
                                   models_dir=models, epochs=epochs, trials=trials,
-                                  methods=wanted, log=typer.echo)
+                                  methods=wanted, log=typer.echo, model=model)
         finally:
             pool.shutdown()
     notes = {"dataset": str(dataset), "simulation workers": workers or rt.cpus,
+             "models": (f"{model} for every assembly" if model is not None
+                        else f"hold-out models from {models}"),
              "methods": ", ".join(wanted), "timing": "each method's search with a cold score cache"}
     paths = write_report(rows, out, f"Planning experiment on {Path(dataset).name}", notes)
     typer.echo((Path(out) / "results.md").read_text())

@@ -9,7 +9,7 @@ import typer
 
 from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, HEAD_OPTION, LR_OPTION,
                                          MAX_ROWS_OPTION, NORM_OPTION, RECIPE_OPTION,
-                                         SCHEDULE_OPTION, describe, resolve)
+                                         SCHEDULE_OPTION, VIEW_OPTION, describe, resolve)
 
 __all__ = ["register", "train_command"]
 
@@ -58,6 +58,7 @@ def train_command(
     lr: Optional[float] = LR_OPTION,
     schedule: Optional[str] = SCHEDULE_OPTION,
     max_rows: Optional[int] = MAX_ROWS_OPTION,
+    view: Optional[str] = VIEW_OPTION,
 ):
     """Train the robustness CNN with a recipe (default 'robust') and save a checkpoint."""
     from rap.commands._console import console as make_console
@@ -68,7 +69,7 @@ def train_command(
     model_config, config = resolve(recipe, epochs=epochs, batch_size=batch_size, seed=seed,
                                    device=device, threshold=threshold, num_threads=threads,
                                    head=head, norm=norm, augment=augment, calibrate=calibrate,
-                                   lr=lr, schedule=schedule, max_rows=max_rows)
+                                   lr=lr, schedule=schedule, max_rows=max_rows, view=view)
     console = make_console(stderr=True)
     bar, on_step = progress_bar(console)
     with bar:

@@ -128,24 +128,44 @@ def _params_and_seed(dataset: str | Path):
     return SimParams.from_dict(dict(meta.params)), int(meta.root_seed)
 
 
+def check_held_out(model: str | Path, assemblies: Sequence) -> None:
+    """Raise ``InputError`` when the checkpoint ``model`` was trained on one of ``assemblies``
+    (same geometry hash, from the checkpoint's metadata): the experiment measures held-out
+    assemblies only."""
+    meta = PredictorCnn.load(model).meta
+    trained = set()
+    for a in meta.get("assemblies") or []:
+        h = a.get("geometry_hash")
+        trained.update(h if isinstance(h, list) else [h])
+    seen = [a.name for a in assemblies if a.geometry_hash in trained]
+    if seen:
+        raise InputError(f"--model {model}: trained on {', '.join(seen)}; the experiment needs "
+                         f"assemblies the model has not seen (use --models for hold-out models)")
+
+
 def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: SimBackend,
                    models_dir: str | Path = "models", epochs: int = 8, trials: int | None = None,
                    methods: Sequence[str] = EXPERIMENT_METHODS, samples: int = 50,
-                   log: Callable[[str], None] = print) -> list[ExperimentRow]:
+                   log: Callable[[str], None] = print,
+                   model: str | Path | None = None) -> list[ExperimentRow]:
     """Plan every assembly (``rap.assembly.Assembly`` objects named as in the dataset) with every
-    method; see the module doc. ``trials`` overrides the dataset's trials per operation."""
+    method; see the module doc. ``trials`` overrides the dataset's trials per operation. With
+    ``model``, that checkpoint scores every assembly (none of which it may have been trained on:
+    ``check_held_out``) instead of one hold-out model per assembly."""
     params, root_seed = _params_and_seed(dataset)
     if trials is not None:
         params = params.with_(trials=int(trials))
     rows: list[ExperimentRow] = []
     for method in methods:
         method_planner(method, samples)  # unknown names fail before any work
+    if model is not None and any(uses_cnn(m) for m in methods):
+        check_held_out(model, assemblies)
     for asm in assemblies:
         cnn = None
         model_path = None
         if any(uses_cnn(m) for m in methods):
-            model_path = holdout_model(dataset, asm.name, models_dir, epochs, log,
-                                       family=getattr(asm, "family", None))
+            model_path = Path(model) if model is not None else holdout_model(
+                dataset, asm.name, models_dir, epochs, log, family=getattr(asm, "family", None))
             cnn = PredictorCnn.load(model_path)
         for method in methods:
             problem = PlanningProblem(asm, params, root_seed, "online")

@@ -34,6 +34,7 @@ def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
     (["train", "{missing}"], "no such dataset directory"),
     (["train", "{tiny}", "--holdout", "nope"], "no such assembly"),
     (["train", "{tiny}", "--device", "tpu"], "unknown device"),
+    (["train", "{tiny}", "--view", "side"], "view must be one of ['pair', 'pair+crop']"),
 ])
 def test_cli_errors_are_one_line_with_status_2(argv, message, tiny_dataset, tmp_path, capsys):
     argv = [a.format(missing=tmp_path / "missing", tiny=tiny_dataset) for a in argv]

@@ -82,3 +82,20 @@ def test_a_crop_model_trains_and_plans_with_the_same_images(real_dataset, tmp_pa
                                atol=1e-4)
     with pytest.raises(Exception, match="in_channels"):
         replace(LEARN_MODEL, view="pair+crop")  # 2 channels do not fit the view
+
+
+def test_train_command_takes_the_view(real_dataset, tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from rap.cli import app
+    from rap.model.predict import Predictor
+
+    monkeypatch.setenv("RAP_CACHE_DIR", str(tmp_path / "cache"))
+    out = tmp_path / "crop.pt"
+    res = CliRunner().invoke(app, ["train", str(real_dataset), "--out", str(out), "--holdout",
+                                   "rectilinear", "--view", "pair+crop", "--epochs", "1",
+                                   "--device", "cpu", "--batch-size", "32"])
+    assert res.exit_code == 0, res.output
+    assert "view pair+crop" in res.output
+    pred = Predictor.load(out)
+    assert pred.view == "pair+crop" and pred.image_shape == (4, 64, 64)

@@ -92,3 +92,24 @@ def test_search_method_names():
     for bad in ("search-x2", "search-w", "search-w0"):
         with pytest.raises(Exception):
             E.method_planner(bad)
+
+
+def test_one_model_for_every_assembly_is_refused_where_it_was_trained(tmp_path, monkeypatch):
+    ds = tmp_path / "ds"
+    ds.mkdir()
+    write_meta(ds, DatasetMeta(schema_version=SCHEMA_VERSION, root_seed=3,
+                               params=SimParams(trials=10).to_dict(), command="test"))
+    tri, row = six("triangles"), memory(ROW3)
+    cnn = TableCnn(lambda op: 0.9 if hash_score(op) >= 0.95 else 0.3)
+    cnn.meta = {"assemblies": [{"name": "triangles", "geometry_hash": tri.geometry_hash}]}
+    loaded = []
+    monkeypatch.setattr(E, "holdout_model", lambda *a, **k: pytest.fail("no hold-out model"))
+    monkeypatch.setattr(E.PredictorCnn, "load",
+                        classmethod(lambda cls, path, device="cpu": loaded.append(path) or cnn))
+    rows = E.run_experiment(ds, [row], sim_backend=HashSim(), methods=["rap", "sim"],
+                            log=lambda s: None, model=tmp_path / "shipped.pt")
+    assert [r.method for r in rows] == ["rap", "sim"] and rows[0].status == "found"
+    assert rows[0].extra["model"] == str(tmp_path / "shipped.pt")
+    with pytest.raises(E.InputError, match="trained on triangles"):
+        E.run_experiment(ds, [row, tri], sim_backend=HashSim(), methods=["rap"],
+                         log=lambda s: None, model=tmp_path / "shipped.pt")
