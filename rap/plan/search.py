@@ -6,8 +6,9 @@ the binomial head's calibrated success rate) standing in for the simulator, whic
 only where it decides:
 
 1. **Exact** (the operation space has at most ``max_operations`` candidate operations): dynamic
-   programming over the reachable subassemblies, ``best(S) = max r(op) best(M) best(F)``
-   (``rap.plan.planners.dp_choice``, the optimum's own recursion and tie-breaking), where ``r(op)``
+   programming over the reachable subassemblies, ``best(S) = max r(op) best(M) best(F)`` (the
+   optimum's own recursion and tie-breaking, by branch and bound: ``rap.plan.bounded_dp``, which
+   renders and scores a subassembly's candidates only when it can still matter), where ``r(op)``
    is the simulated score of an operation already simulated and the model's expected score
    otherwise. An interlocked subassembly is a dead end (``best = 0``), not a failure.
 2. **Beam** (beyond the budget, e.g. 30 or 100 parts): top-down beam search: every state is a
@@ -27,8 +28,8 @@ only where it decides:
 With a perfect model (predictions equal to the simulator's scores) the exact mode returns the
 optimum exactly. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
 
-Cost: one CNN batch over the whole graph (exact) or over each round's candidates (beam), plus the
-simulations asked for. No ray, no torch.
+Cost: one CNN batch per subassembly visited (exact; on held-out assemblies 65-71% of the graph's
+operations on average) or per round's candidates (beam), plus the simulations asked for. No ray, no torch.
 """
 
 from __future__ import annotations
@@ -38,7 +39,8 @@ import math
 from dataclasses import dataclass
 
 from rap.operation import Operation
-from rap.plan.planners import Planner, _Interlocked, assembly_order, dead_end, dp_choice, dp_tree
+from rap.plan.bounded_dp import dp_choice_bounded
+from rap.plan.planners import Planner, _Interlocked, assembly_order, dead_end
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStep
 from rap.plan.scorers import Scorer
@@ -108,7 +110,7 @@ class SearchPlanner(Planner):
     name = "search"
 
     def __init__(self, beam_width: int = DEFAULT_BEAM, max_operations: int = DEFAULT_MAX_OPERATIONS,
-                 simulations: int = 0, trust: float | None = None):
+                 simulations: int = 0, trust: float | None = None, lazy: bool = True):
         if beam_width < 1 or max_operations < 1 or simulations < 0:
             raise ValueError("beam_width, max_operations >= 1 and simulations >= 0")
         if trust is not None and not 0.0 < trust <= 1.0:
@@ -117,6 +119,7 @@ class SearchPlanner(Planner):
         self.max_operations = int(max_operations)
         self.simulations = int(simulations)
         self.trust = None if trust is None else float(trust)
+        self.lazy = bool(lazy)  # False: score the whole graph in one batch first (same plan)
 
     def _to_simulate(self, scores: "_Scores", ops) -> list:
         """The operations of a chosen sequence still worth a simulation: not simulated, and not
@@ -152,18 +155,23 @@ class SearchPlanner(Planner):
 
     # -- exact ------------------------------------------------------------------------------------
     def _exact(self, graph, scores: _Scores, whole, stats) -> dict:
-        scores.predict([op for c in graph.values() for op in c])
         stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
+        if not self.lazy:
+            scores.predict([op for c in graph.values() for op in c])
+
+        def scores_of(s):  # predicted on the first visit, one CNN batch per subassembly
+            scores.predict(graph[s])
+            return [scores.of(op) for op in graph[s]]
+
         spent = 0
         while True:
-            score_of = {s: [scores.of(op) for op in c] for s, c in graph.items()}
-            best, arg = dp_choice(graph, score_of)
-            if best.get(whole, 0.0) <= 0.0:
+            best, tree = dp_choice_bounded(graph, scores_of, whole)
+            if best <= 0.0:
                 raise _Interlocked(dead_end(graph, whole))
-            choice = {sub: op for sub, (_, op) in dp_tree(graph, arg, whole).items()}
+            choice = {sub: op for sub, (_, op) in tree.items()}
             todo = self._to_simulate(scores, choice.values())
             if not todo or spent >= self.simulations:
-                stats["predicted_robustness"] = best[whole]
+                stats["predicted_robustness"] = best
                 return choice
             todo = todo[:self.simulations - spent]
             scores.simulate(todo)

@@ -1,0 +1,85 @@
+"""Search's exact mode: scoring lazily (branch and bound) against scoring the whole graph first.
+
+For each assembly, ``SearchPlanner`` without simulations plans with the same CNN, alternately with
+``lazy=True`` (``rap.plan.bounded_dp``: a subassembly's candidates are rendered and scored only
+when it can still matter, one batch per subassembly) and ``lazy=False`` (the whole graph in one
+batch, then the same DP), ``--repeats`` times each, interleaved; the plans must be identical.
+Prints per assembly the operations scored and the median planning times, and the ratio of the
+totals (one run, so machine noise hits both alike).
+
+    python benchmarks/search.py [--model rap/data/default_model.pt] [--repeats 3] [NAME ...]
+
+Assemblies are looked up in assemblies/, assemblies/unseen/ and datasets/corpus/_assemblies/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+DEFAULT = ["grid", "hexagon", "mixed-square", "pentagons", "rectilinear", "triangles",
+           "c-shapes-s20", "convex-s26", "fan-s12", "funnels-s2", "hub-s32", "knobs-s27",
+           "packing-s25", "pegs-s5", "polyomino-s33", "wall-s4"]
+
+
+class _NoSim:
+    def simulate_many(self, problem, ops):
+        raise AssertionError("no simulation expected")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("names", nargs="*", default=DEFAULT)
+    ap.add_argument("--model", default=str(ROOT / "rap" / "data" / "default_model.pt"))
+    ap.add_argument("--repeats", type=int, default=3)
+    a = ap.parse_args()
+
+    from rap.io import load_assembly
+    from rap.plan.cache import ScoreCache
+    from rap.plan.problem import PlanningProblem
+    from rap.plan.scorers import PredictorCnn, Scorer
+    from rap.plan.search import SearchPlanner
+    from rap.sim.params import SimParams
+
+    cnn = PredictorCnn.load(a.model, engine="auto")
+    dirs = [ROOT / "assemblies", ROOT / "assemblies" / "unseen",
+            ROOT / "datasets" / "corpus" / "_assemblies"]
+    totals = {True: 0.0, False: 0.0}
+    print(f"{'assembly':16s} {'ops':>5s} {'scored':>6s} {'lazy s':>7s} {'all s':>7s} {'ratio':>6s}")
+    for name in a.names:
+        path = next(d / f"{name}.json" for d in dirs if (d / f"{name}.json").is_file())
+        asm = load_assembly(path)
+        times = {True: [], False: []}
+        plans, st = {}, {}
+        warm = PlanningProblem(asm, SimParams(), 1)
+        cnn.expected_score(warm, list(warm.candidates(warm.whole))[:2])
+        for _ in range(a.repeats):
+            for lazy in (True, False):
+                problem = PlanningProblem(asm, SimParams(), 1)
+                st = {}
+                t = time.perf_counter()
+                steps = SearchPlanner(lazy=lazy)._search(problem, Scorer(_NoSim(), cnn,
+                                                                         ScoreCache()), st)
+                times[lazy].append(time.perf_counter() - t)
+                plans[lazy] = [(s.moving, s.fixed, s.direction) for s in steps]
+                if lazy:
+                    scored = st["predicted_operations"]
+        if plans[True] != plans[False]:
+            sys.exit(f"{name}: the lazy and the full search chose different plans")
+        med = {k: statistics.median(v) for k, v in times.items()}
+        for k in totals:
+            totals[k] += med[k]
+        print(f"{name:16s} {st['operations']:5d} {scored:6d} "
+              f"{med[True]:7.3f} {med[False]:7.3f} {med[False] / med[True]:6.2f}", flush=True)
+    print(f"total: lazy {totals[True]:.2f} s, whole graph first {totals[False]:.2f} s: "
+          f"{totals[False] / totals[True]:.2f}x")
+
+
+if __name__ == "__main__":
+    main()
