@@ -140,7 +140,19 @@ def evaluate_command(
                       f"{100 * m['accuracy']:.1f}% (ceiling {100 * m.get('ceiling', float('nan')):.1f}%) "
                       f"on {m['rows']} rows ({f['seconds']:.0f} s)")
 
-    folds = cross_validate(specs, runner, on_fold)
+    from rap.model.evaluate import sequential_folds
+
+    if runner is sequential_folds:  # in this process: a progress bar per fold
+        import functools
+
+        from rap.commands.train import progress_bar
+
+        bar, on_step = progress_bar(console)
+        with bar:
+            folds = cross_validate(specs, functools.partial(sequential_folds, on_step=on_step),
+                                   on_fold)
+    else:
+        folds = cross_validate(specs, runner, on_fold)
     notes = {"dataset": str(Path(dataset).resolve()), "threshold": threshold, "epochs": epochs,
              "batch size": batch_size, "seed": seed, "run": how, "recipe": recipe,
              "model": describe(model_config, config),

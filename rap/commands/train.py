@@ -19,15 +19,18 @@ def progress_bar(console=None):
     from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
                                TimeElapsedColumn, TimeRemainingColumn)
 
-    bar = Progress(TextColumn("epoch {task.fields[epoch]}"), BarColumn(), MofNCompleteColumn(),
+    bar = Progress(TextColumn("{task.description} epoch {task.fields[epoch]}"), BarColumn(),
+                   MofNCompleteColumn(),
                    TextColumn("loss {task.fields[loss]:.4f}  acc {task.fields[acc]:.3f}"),
                    TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=False)
     state = {}
 
-    def on_step(ev: dict) -> None:
+    def on_step(ev: dict) -> None:  # a new bar per ev["task"] (evaluate's folds)
         total = ev["steps"] * ev["epochs"]
-        if "task" not in state:
-            state["task"] = bar.add_task("train", total=total, epoch="", loss=0.0, acc=0.0)
+        name = ev.get("task", "train")
+        if state.get("name") != name:
+            state["name"] = name
+            state["task"] = bar.add_task(name, total=total, epoch="", loss=0.0, acc=0.0)
         bar.update(state["task"], completed=(ev["epoch"] - 1) * ev["steps"] + ev["step"],
                    epoch=f"{ev['epoch']}/{ev['epochs']}", loss=ev["loss"], acc=ev["accuracy"])
 

@@ -69,18 +69,21 @@ def fold_specs(root: str | Path, model_config: ModelConfig, config: TrainConfig,
     return specs
 
 
-def run_fold(spec: dict) -> dict:
+def run_fold(spec: dict, on_step: Callable[[dict], None] | None = None) -> dict:
     """Train without the fold's test set, test on it; save the model when ``save_to`` is set.
     Returns plain values: kind, test name (``assembly``), holdout metrics, training summary,
-    seconds, checkpoint path."""
+    seconds, checkpoint path. ``on_step`` gets ``rap.model.train.train``'s events with
+    ``"task": "KIND NAME"`` added."""
     t0 = time.perf_counter()
     config = TrainConfig(**spec["train_config"])
     kind = spec.get("kind", "assembly")
     store = row_store(spec["root"], config.max_memory_mb)
+    task = f"{kind} {spec['assembly']}"
     result = train(spec["root"], holdout=spec["assembly"] if kind == "assembly" else None,
                    holdout_family=spec["assembly"] if kind == "family" else None,
                    model_config=ModelConfig.from_dict(spec["model_config"]), config=config,
-                   store=store)
+                   store=store,
+                   on_step=None if on_step is None else (lambda ev: on_step({**ev, "task": task})))
     if spec.get("save_to"):
         result.save(spec["save_to"])
     return {"kind": kind, "assembly": spec["assembly"], "metrics": result.metrics["holdout"],
@@ -88,9 +91,11 @@ def run_fold(spec: dict) -> dict:
             "seconds": time.perf_counter() - t0, "checkpoint": spec.get("save_to")}
 
 
-def sequential_folds(specs: list[dict]) -> Iterator[dict]:
+def sequential_folds(specs: list[dict],
+                     on_step: Callable[[dict], None] | None = None) -> Iterator[dict]:
+    """The folds one after the other in this process (``on_step``: see ``run_fold``)."""
     for spec in specs:
-        yield run_fold(spec)
+        yield run_fold(spec, on_step)
 
 
 def cross_validate(specs: list[dict], runner: FoldRunner = sequential_folds,

@@ -184,6 +184,7 @@ def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: Si
                                                        "operations", "dp_speedup", "cnn_ops",
                                                        "fallback_candidates", "eval_simulations",
                                                        "search", "search_simulations",
+                                                       "predicted_operations",
                                                        "predicted_robustness")
                                     if k in st},
                                  "family": getattr(asm, "family", None),

@@ -24,6 +24,7 @@ def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
                                    "1", "--no-ray", "--device", "cpu", "--no-save-models"])
     assert res.exit_code == 0, res.output
     assert "mean accuracy" in res.output
+    assert res.output.count(" epoch 1/1") >= 3  # a progress bar per fold, named
     for name in ("table.md", "table.csv", "folds.json", "crossval.png"):
         assert (out / name).stat().st_size > 0
     assert not (out / "models").exists()
