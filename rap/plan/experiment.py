@@ -267,6 +267,7 @@ def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, LogLocator
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -372,6 +373,10 @@ def write_report(rows: Sequence[ExperimentRow], out_dir: str | Path, title: str,
             axp.annotate(m, (t, r), textcoords="offset points", xytext=(4, 3 if i % 2 else -10),
                          fontsize=8)
     axp.set_xscale("log")
+    plain = FuncFormatter(lambda v, _: f"{v:g}")  # 0.5, 1, 2, 5, 10 ... s: no crowded 2x10^0
+    axp.xaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+    axp.xaxis.set_major_formatter(plain)
+    axp.xaxis.set_minor_formatter(plain)
     axp.set_xlabel("mean planning time (s, log)")
     axp.set_ylabel("mean robustness R")
     axp.set_title("Robustness against planning time")
