@@ -132,7 +132,7 @@ def check_held_out(model: str | Path, assemblies: Sequence) -> None:
     """Raise ``InputError`` when the checkpoint ``model`` was trained on one of ``assemblies``
     (same geometry hash, from the checkpoint's metadata): the experiment measures held-out
     assemblies only."""
-    meta = PredictorCnn.load(model).meta
+    meta = PredictorCnn.load(model, engine="auto").meta
     trained = set()
     for a in meta.get("assemblies") or []:
         h = a.get("geometry_hash")
@@ -158,15 +158,20 @@ def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: Si
     rows: list[ExperimentRow] = []
     for method in methods:
         method_planner(method, samples)  # unknown names fail before any work
+    shared = None
     if model is not None and any(uses_cnn(m) for m in methods):
         check_held_out(model, assemblies)
+        shared = PredictorCnn.load(model)  # loaded once for every assembly
     for asm in assemblies:
         cnn = None
         model_path = None
         if any(uses_cnn(m) for m in methods):
-            model_path = Path(model) if model is not None else holdout_model(
-                dataset, asm.name, models_dir, epochs, log, family=getattr(asm, "family", None))
-            cnn = PredictorCnn.load(model_path)
+            if shared is not None:
+                model_path, cnn = Path(model), shared
+            else:
+                model_path = holdout_model(dataset, asm.name, models_dir, epochs, log,
+                                           family=getattr(asm, "family", None))
+                cnn = PredictorCnn.load(model_path)
         for method in methods:
             problem = PlanningProblem(asm, params, root_seed, "online")
             scorer = Scorer(sim_backend, cnn if uses_cnn(method) else None, ScoreCache())  # cold

@@ -105,11 +105,13 @@ def test_one_model_for_every_assembly_is_refused_where_it_was_trained(tmp_path, 
     loaded = []
     monkeypatch.setattr(E, "holdout_model", lambda *a, **k: pytest.fail("no hold-out model"))
     monkeypatch.setattr(E.PredictorCnn, "load",
-                        classmethod(lambda cls, path, device="cpu": loaded.append(path) or cnn))
-    rows = E.run_experiment(ds, [row], sim_backend=HashSim(), methods=["rap", "sim"],
-                            log=lambda s: None, model=tmp_path / "shipped.pt")
-    assert [r.method for r in rows] == ["rap", "sim"] and rows[0].status == "found"
+                        classmethod(lambda cls, path, **kw: loaded.append(path) or cnn))
+    rows = E.run_experiment(ds, [row, six("hexagon")], sim_backend=HashSim(),
+                            methods=["rap", "sim"], log=lambda s: None,
+                            model=tmp_path / "shipped.pt")
+    assert [r.method for r in rows] == ["rap", "sim"] * 2 and rows[0].status == "found"
     assert rows[0].extra["model"] == str(tmp_path / "shipped.pt")
+    assert len(loaded) == 2  # read once for the check, loaded once for both assemblies
     with pytest.raises(E.InputError, match="trained on triangles"):
         E.run_experiment(ds, [row, tri], sim_backend=HashSim(), methods=["rap"],
                          log=lambda s: None, model=tmp_path / "shipped.pt")
