@@ -16,7 +16,8 @@ FILES = sorted((ROOT / "assemblies" / "unseen").glob("*.json"))
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("make_unseen", ROOT / "scripts" / "make_unseen.py")
+    spec = importlib.util.spec_from_file_location("make_unseen",
+                                                  ROOT / "scripts" / "make_unseen.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -59,4 +60,5 @@ def test_the_script_writes_the_committed_files(tmp_path, monkeypatch):
     written = mod.make_assemblies()
     assert sorted(p.name for p in written) == [f.name for f in FILES]
     for p in written:
-        assert json.loads(p.read_text()) == json.loads((ROOT / "assemblies" / "unseen" / p.name).read_text())
+        committed = ROOT / "assemblies" / "unseen" / p.name
+        assert json.loads(p.read_text()) == json.loads(committed.read_text())

@@ -31,13 +31,17 @@ __all__ = ["dp_choice_bounded", "SLACK"]
 SLACK = 1.0 - 1e-9  # prune only below (1 - 1e-9) x the bar: rounding never hides a tie
 
 
-def dp_choice_bounded(graph: dict[frozenset, tuple[Operation, ...]],
-                      scores_of: Callable[[frozenset], Sequence[float]],
-                      whole: frozenset) -> tuple[float, dict[frozenset, tuple[int, Operation]]]:
+Graph = dict[frozenset, tuple[Operation, ...]]
+Tree = dict[frozenset, tuple[int, Operation]]
+
+
+def dp_choice_bounded(graph: Graph, scores_of: Callable[[frozenset], Sequence[float]],
+                      whole: frozenset) -> tuple[float, Tree]:
     """``(best(whole), tree)``: ``tree`` maps every composite subassembly of the chosen
     decomposition to ``(candidate index, operation)``, as ``dp_tree(graph, dp_choice(...)[1],
-    whole)``; ``(0.0, {})`` when no sequence exists (best 0) and ``(1.0, {})`` for a single part. ``scores_of(S)``: the scores in [0, 1] of
-    ``graph[S]`` in order (called at most once per visit of ``S``)."""
+    whole)``; ``(0.0, {})`` when no sequence exists (best 0), ``(1.0, {})`` for a single part.
+    ``scores_of(S)``: the scores in [0, 1] of ``graph[S]`` in order (asked once per visit of
+    ``S``; a subassembly first bounded is visited again when a lower bar needs its value)."""
     exact: dict[frozenset, tuple[float, int]] = {}
     bound: dict[frozenset, float] = {}
 
@@ -86,7 +90,7 @@ def dp_choice_bounded(graph: dict[frozenset, tuple[Operation, ...]],
     best, _ = value(whole, -1.0)
     if best <= 0.0:
         return 0.0, {}  # no sequence: the caller names the dead end (``dead_end``)
-    tree: dict[frozenset, tuple[int, Operation]] = {}
+    tree: Tree = {}
     stack = [whole]
     while stack:
         s = stack.pop()

@@ -29,7 +29,8 @@ With a perfect model (predictions equal to the simulator's scores) the exact mod
 optimum exactly. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
 
 Cost: one CNN batch per subassembly visited (exact; on held-out assemblies 65-71% of the graph's
-operations on average) or per round's candidates (beam), plus the simulations asked for. No ray, no torch.
+operations on average) or per round's candidates (beam), plus the simulations asked for. No ray,
+no torch.
 """
 
 from __future__ import annotations
