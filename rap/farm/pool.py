@@ -120,8 +120,18 @@ class SimPool:
         return len(self._actors)
 
     def ready(self, timeout_s: float | None = 120.0) -> list[dict]:
-        """Wait until every actor has started; returns their ``{"node", "pid"}``."""
-        return ray.get([a.info.remote() for a in self._actors], timeout=timeout_s)
+        """Wait until every actor has started; returns their ``{"node", "pid"}``. Raises
+        ``FarmError`` (one line, exit status 3) when they have not within ``timeout_s``: Ray
+        starts workers at a low priority, so on cores that other jobs keep busy (or a cluster
+        without free CPUs) they may not start at all."""
+        refs = [a.info.remote() for a in self._actors]
+        done, _ = ray.wait(refs, num_returns=len(refs), timeout=timeout_s)
+        if len(done) < len(refs):
+            raise FarmError(f"{len(refs) - len(done)} of {len(refs)} simulation workers did not "
+                            f"start within {timeout_s:.0f} s: are other jobs using every core, "
+                            f"or has the cluster no free CPUs? Run again when they are free, or "
+                            f"with fewer --workers")
+        return ray.get(refs)
 
     def shutdown(self) -> None:
         """Kill the actors (the cluster itself is left alone)."""

@@ -101,3 +101,14 @@ def test_worker_killed_mid_run(ray_local, grid, ray_retries):
         assert len(keys) == len(ops)
         if not ray_retries:
             assert pool.stats["resubmitted"] >= 1
+
+
+def test_workers_that_cannot_start_are_one_clear_error(ray_local):
+    """An actor that needs more CPUs than the cluster has never starts: ready() says so in one
+    line (FarmError, exit status 3) instead of Ray's timeout traceback."""
+    from rap.farm.pool import FarmError, SimPool
+
+    with SimPool(1, backend=FAKE, cpus_per_worker=1000.0) as pool:
+        with pytest.raises(FarmError, match="1 of 1 simulation workers did not start within 1 s"):
+            pool.ready(timeout_s=1.0)
+        assert FarmError.exit_code == 3
