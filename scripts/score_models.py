@@ -36,9 +36,8 @@ def main() -> None:
         specs.append((label, paths.split("+")))
 
     from rap.model.data import RowStore
-    from rap.model.metrics import classification_metrics
+    from rap.model.evaluate import group_metrics
     from rap.model.predict import Predictor
-    from rap.model.train import successes_of
 
     store = RowStore(a.dataset)
     images, probs = {}, {}
@@ -53,20 +52,14 @@ def main() -> None:
                                           for i in range(0, len(im), 512)])
         return probs[path]
 
-    scores, trials = store.scores, store.trials
-    labels = (scores >= 0.95).astype(np.int64)
-    names = sorted(set(store.assembly.tolist()))
     keys = ("accuracy", "low_accuracy", "high_accuracy", "ece", "ceiling", "rows")
     out = {}
     for label, paths in specs:
         p = np.mean([prob_high(x) for x in paths], axis=0)
-        per = {}
-        for n in names:
-            m = store.assembly == n
-            per[n] = classification_metrics(labels[m], p[m], successes_of(scores[m], trials[m]),
-                                            trials[m], 0.95, reliability=False)
-        pooled = classification_metrics(labels, p, successes_of(scores, trials), trials, 0.95,
-                                        reliability=False)
+        rows = group_metrics(store.assembly, store.scores, store.trials, p, 0.95)
+        per = {r["assembly"]: r for r in rows[:-1]}
+        pooled = rows[-1]
+        names = sorted(per)
         mean = float(np.mean([per[n]["accuracy"] for n in names]))
         out[label] = {"models": paths, "mean": mean,
                       "pooled": {k: pooled[k] for k in keys},
@@ -75,7 +68,7 @@ def main() -> None:
               f"{100 * pooled['ece']:.1f} | "
               + " ".join(f"{n}:{100 * per[n]['accuracy']:.1f}" for n in names), flush=True)
     first = next(iter(out.values()))["per"]
-    print("noise ceiling: " + " ".join(f"{n}:{100 * first[n]['ceiling']:.1f}" for n in names))
+    print("noise ceiling: " + " ".join(f"{n}:{100 * c['ceiling']:.1f}" for n, c in first.items()))
     if a.json:
         a.json.write_text(json.dumps(out, indent=1))
 

@@ -251,13 +251,16 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
     mirror image (``rap.model.predict.Predictor``). Streams the dataset (O(batch) memory besides
     the per-row labels and probabilities)."""
     from rap.dataset import decode_images, iter_batches
-    from rap.model.metrics import classification_metrics
     from rap.model.predict import Predictor
-    from rap.model.train import successes_of
 
     if by not in KINDS:
         raise ValueError(f"by must be one of {KINDS}")
     pred = Predictor.load(model_path, device=device, mirror=mirror)
+    if pred.view != "pair":
+        from rap.errors import InputError
+
+        raise InputError(f"{model_path}: takes the {pred.view} view, rendered again from geometry; "
+                         f"score it with scripts/score_models.py")
     groups, scores, trials, probs = [], [], [], []
     import pyarrow.compute as pc
 
@@ -273,13 +276,21 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
         probs.append(pred.prob_high(decode_images(rb.column("image"))))
     if not groups:
         return []
-    groups_a = np.array(groups, dtype=object)
-    sc, tr, pr = np.concatenate(scores), np.concatenate(trials), np.concatenate(probs)
-    th = pred.threshold
+    return group_metrics(np.array(groups, dtype=object), np.concatenate(scores),
+                         np.concatenate(trials), np.concatenate(probs), pred.threshold, by)
+
+
+def group_metrics(groups: np.ndarray, scores: np.ndarray, trials: np.ndarray,
+                  prob_high: np.ndarray, threshold: float, by: str = "assembly") -> list[dict]:
+    """``classification_metrics`` per group (sorted) and over all rows (``{by: "all"}``, last)."""
+    from rap.model.metrics import classification_metrics
+    from rap.model.train import successes_of
+
     rows = []
-    for name in [*sorted(set(groups)), None]:
-        m = np.ones(len(sc), dtype=bool) if name is None else groups_a == name
-        met = classification_metrics((sc[m] >= th).astype(np.int64), pr[m],
-                                     successes_of(sc[m], tr[m]), tr[m], th, reliability=False)
+    for name in [*sorted(set(groups.tolist())), None]:
+        m = np.ones(len(scores), dtype=bool) if name is None else groups == name
+        met = classification_metrics((scores[m] >= threshold).astype(np.int64), prob_high[m],
+                                     successes_of(scores[m], trials[m]), trials[m], threshold,
+                                     reliability=False)
         rows.append({by: "all" if name is None else name, **met})
     return rows
