@@ -40,6 +40,8 @@ def experiment_command(
                                help="Simulator trials [default: the dataset's]."),
     address: str = typer.Option(None, "--address", help="Join this Ray cluster."),
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors [default: all CPUs]."),
+    start_timeout: float = typer.Option(120.0, "--start-timeout", min=1.0,
+                                        help="Seconds the simulation actors may take to start."),
 ):
     """Compare RAP, sim-only, optimal and random planning on every assembly (paper, section 8)."""
     from rap.io import load_assembly
@@ -84,7 +86,7 @@ def experiment_command(
     with connect(address) as rt:
         pool = SimPool(workers or rt.cpus)
         try:
-            pool.ready()
+            pool.ready(start_timeout)
             rows = run_experiment(dataset, asms, sim_backend=service.PoolSimulator(pool),
                                   models_dir=models, epochs=epochs, trials=trials,
                                   methods=wanted, log=typer.echo, model=model)

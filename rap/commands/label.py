@@ -44,6 +44,10 @@ def label(
     mode: str = typer.Option("all", "--mode", help="Partitions: 'all' (exhaustive) or 'online' (RAP's)."),
     flush_rows: int = typer.Option(512, "--flush-rows", help="Commit a shard every N rows..."),
     flush_seconds: float = typer.Option(30.0, "--flush-seconds", help="...or every T seconds."),
+    start_timeout: float = typer.Option(
+        120.0, "--start-timeout", min=1.0,
+        help="Seconds the simulation workers may take to start (a cluster that adds nodes on "
+             "demand needs minutes) before the run ends with exit status 3."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Label operations (simulated success rate + start/goal images) into a Parquet dataset."""
@@ -63,8 +67,8 @@ def label(
         assemblies=tuple(assemblies), out=out, address=address, workers=workers,
         trials=trials if trials is not None else p_trials, seed=seed,
         max_ops_per_assembly=max_ops_eff, directions_per_range=directions, mode=mode,
-        flush_rows=flush_rows,
-        flush_seconds=flush_seconds, progress=not quiet and sys.stderr.isatty(),
+        flush_rows=flush_rows, flush_seconds=flush_seconds, start_timeout_s=start_timeout,
+        progress=not quiet and sys.stderr.isatty(),
         command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]))
     plan = driver.prepare(cfg)
     typer.echo(f"{plan.total} operations selected in {len(plan.assemblies)} assemblies "

@@ -167,7 +167,7 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
         summary.workers = pool.size
         progress = _progress(cfg.progress, plan.total)
         try:
-            pool.ready()
+            pool.ready(cfg.start_timeout_s)
             summary.startup_s = time.perf_counter() - t0
             t0 = time.perf_counter()  # the rate counts labelling time only
             with progress:

@@ -129,8 +129,8 @@ class SimPool:
         if len(done) < len(refs):
             raise FarmError(f"{len(refs) - len(done)} of {len(refs)} simulation workers did not "
                             f"start within {timeout_s:.0f} s: are other jobs using every core, "
-                            f"or has the cluster no free CPUs? Run again when they are free, or "
-                            f"with fewer --workers")
+                            f"or has the cluster no free CPUs? Run again when they are free, "
+                            f"with fewer --workers or a longer --start-timeout")
         return ray.get(refs)
 
     def shutdown(self) -> None:

@@ -61,6 +61,7 @@ class LabelConfig:
     first_flush_seconds: float = 2.0
     batch_size: int | None = None
     num_cpus: int | None = None  # embedded Ray only: CPUs to start it with (default: all)
+    start_timeout_s: float = 120.0  # simulation workers must start within this (FarmError)
     backend: Backend = Backend()
     params_factory: str = "rap.sim.params:SimParams"
     progress: bool = True

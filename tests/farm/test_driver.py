@@ -194,10 +194,15 @@ def test_cli_label_prints_summary_and_resumes(ray_local, standin_enum, monkeypat
     run = driver.run_label
     monkeypatch.setattr(driver, "run_label",
                         lambda c, plan=None, **kw: run(dataclasses.replace(c, backend=REAL), plan, **kw))
+    from rap.farm.pool import SimPool
+
+    ready, waits = SimPool.ready, []
+    monkeypatch.setattr(SimPool, "ready", lambda self, t=120.0: waits.append(t) or ready(self, t))
     out = tmp_path / "cli"
     argv = ["label", TWO[0], "--out", str(out), "--preset", "tiny", "--max-ops-per-assembly", "5",
-            "--trials", "2", "--quiet"]
+            "--trials", "2", "--quiet", "--start-timeout", "90"]
     main(argv)
+    assert waits == [90.0]  # --start-timeout reaches the pool
     cap = capsys.readouterr()
     assert "5 operations selected in 1 assemblies (0 rows already in" in cap.err
     assert "5 labelled now" in cap.out and "score histogram" in cap.out and "ops/s" in cap.out
