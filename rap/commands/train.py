@@ -62,6 +62,10 @@ def train_command(
     schedule: Optional[str] = SCHEDULE_OPTION,
     max_rows: Optional[int] = MAX_ROWS_OPTION,
     view: Optional[str] = VIEW_OPTION,
+    init: Optional[Path] = typer.Option(
+        None, "--init",
+        help="Start from this checkpoint's weights (same recipe and network): fine-tune a model, "
+             "e.g. rap/data/default_model.pt on your own labelled assemblies, or train it longer."),
 ):
     """Train the robustness CNN with a recipe (default 'robust') and save a checkpoint."""
     from rap.commands._console import console as make_console
@@ -81,11 +85,13 @@ def train_command(
 
         result = train(dataset, holdout=holdout, holdout_family=holdout_family,
                        model_config=model_config, config=config, on_step=on_step,
-                       command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]))
+                       command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]),
+                       init=init)
     path = result.save(out)
     tr = result.metrics["train"]
     t = result.training
-    typer.echo(f"robustness CNN ({recipe}): {describe(model_config, config)}")
+    typer.echo(f"robustness CNN ({recipe}): {describe(model_config, config)}"
+               + (f", starting from {init}" if init is not None else ""))
     typer.echo(f"trained on {tr['rows']} rows ({tr['high_rows']} high) on {t['device']}: "
                f"{tr['samples_per_s']:.0f} samples/s, {t['seconds']:.1f} s")
     if result.calibration:

@@ -35,7 +35,7 @@ from rap import __version__
 from rap.dataset import open_dataset
 from rap.errors import InputError
 from rap.model import heads
-from rap.model.checkpoint import save_checkpoint
+from rap.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from rap.model.cnn import ModelConfig, RobustnessCNN
 from rap.model.data import (InMemoryBatches, RowStore, Selection, assembly_summary,
                             data_fingerprint, image_stats, iter_rows, labels_of, make_batches,
@@ -178,9 +178,13 @@ def _lr_at(config: TrainConfig, step: int, total: int) -> float:
 def train(root: str | Path, *, holdout: str | None = None, holdout_family: str | None = None,
           model_config: ModelConfig = ModelConfig(), config: TrainConfig = TrainConfig(),
           on_step: Callable[[dict], None] | None = None, store: RowStore | None = None,
-          command: str | None = None) -> TrainResult:
+          command: str | None = None, init: str | Path | None = None) -> TrainResult:
     """Train on the dataset at ``root`` without the assembly ``holdout`` / the family
     ``holdout_family``; report metrics on what was held out.
+
+    ``init``: start from this checkpoint's weights instead of a random initialisation (fine-tuning
+    or training longer); its architecture must be ``model_config``'s (else ``InputError``). Its
+    path and data fingerprint go into the provenance (``training["init"]``).
 
     ``on_step`` gets after every batch ``{"epoch", "epochs", "step", "steps", "loss", "accuracy"}``
     (running means over the epoch so far). ``command`` (the command line that asked for this
@@ -208,6 +212,7 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
     if holdout_family is not None and holdout_family not in families:
         raise InputError(f"--holdout-family {holdout_family}: no such family in {root} "
                          f"(has: {', '.join(families)})")
+    init_ckpt = _init_checkpoint(init, model_config) if init is not None else None
     exclude = (holdout,) if holdout else ()
     exclude_families = (holdout_family,) if holdout_family else ()
     sel = select(root, exclude=exclude, exclude_families=exclude_families)
@@ -246,6 +251,8 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
         else:
             weights = [1.0, 1.0]
         model = RobustnessCNN(model_config).to(device)
+        if init_ckpt is not None:
+            model.load_state_dict(init_ckpt.model.state_dict())
         if config.weight_decay:
             opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
         else:
@@ -319,11 +326,30 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
                 "holdout": holdout, "holdout_family": holdout_family,
                 "class_counts": [int(c) for c in counts], "class_weights": weights,
                 "trials": n_trials, "device": str(device), "command": command,
+                "init": _init_provenance(init_ckpt),
                 "seconds": time.perf_counter() - t0, "code_version": __version__,
                 "torch_version": str(torch.__version__)}
     return TrainResult(model=model.cpu(), threshold=float(config.threshold),
                        data_fingerprint=fingerprint, assemblies=summary, image_stats=stats,
                        metrics=metrics, training=training, calibration=calibration)
+
+
+def _init_checkpoint(path: str | Path, model_config: ModelConfig) -> Checkpoint:
+    """The checkpoint ``train(init=path)`` starts from; ``InputError`` for another architecture."""
+    ckpt = load_checkpoint(path)
+    if ckpt.config != model_config:
+        theirs = ckpt.config.to_dict()
+        diff = sorted(k for k, v in model_config.to_dict().items() if theirs.get(k) != v)
+        raise InputError(f"--init {path}: its network differs from this recipe's in "
+                         f"{', '.join(diff)} (choose the recipe and options it was trained with)")
+    return ckpt
+
+
+def _init_provenance(ckpt: Checkpoint | None) -> dict | None:
+    if ckpt is None:
+        return None
+    return {"path": ckpt.path, "data_fingerprint": ckpt.data_fingerprint,
+            "command": ckpt.training.get("command")}
 
 
 def corpus_version(root: str | Path, fingerprint: str) -> dict:

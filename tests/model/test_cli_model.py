@@ -16,6 +16,14 @@ def test_train_command_writes_a_loadable_checkpoint(tiny_dataset, tmp_path):
     assert "holdout beta: accuracy" in res.output and f"wrote {out}" in res.output
     p = Predictor.load(out)
     assert p.training["config"]["seed"] == 3 and p.training["holdout"] == "beta"
+    tuned = tmp_path / "models" / "tuned.pt"
+    res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(tuned), "--epochs", "1",
+                                   "--device", "cpu", "--init", str(out), "--lr", "1e-4"])
+    assert res.exit_code == 0, res.output
+    assert f"starting from {out}" in res.output
+    init = Predictor.load(tuned).training["init"]
+    assert init["path"] == str(out) and init["data_fingerprint"] == p.data_fingerprint
+    assert init["command"] == p.training["command"]
 
 
 def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
@@ -36,6 +44,9 @@ def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
     (["train", "{tiny}", "--holdout", "nope"], "no such assembly"),
     (["train", "{tiny}", "--device", "tpu"], "unknown device"),
     (["train", "{tiny}", "--view", "side"], "view must be one of ['pair', 'pair+crop']"),
+    (["train", "{tiny}", "--init", "{missing}"], "no such checkpoint"),
+    (["train", "{tiny}", "--init", "rap/data/default_model.pt", "--recipe", "paper"],
+     "its network differs from this recipe's in head, norm"),
 ])
 def test_cli_errors_are_one_line_with_status_2(argv, message, tiny_dataset, tmp_path, capsys):
     argv = [a.format(missing=tmp_path / "missing", tiny=tiny_dataset) for a in argv]

@@ -62,3 +62,30 @@ def test_unknown_holdout_and_bad_options(tiny_dataset, tmp_path):
         train(tmp_path / "none", model_config=TINY_MODEL, config=FAST_TRAIN)
     with pytest.raises(InputError):
         TrainConfig(epochs=0)
+
+
+def test_init_starts_from_a_checkpoints_weights_and_records_it(tiny_dataset, tmp_path):
+    first = train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN)
+    path = first.save(tmp_path / "first.pt")
+    # a tiny learning rate: the fine-tuned weights stay next to the first model's, far from a
+    # fresh initialisation's
+    cfg = replace(FAST_TRAIN, lr=1e-9, seed=1)
+    tuned = _weights(train(tiny_dataset, model_config=TINY_MODEL, config=cfg, init=path))
+    fresh = _weights(train(tiny_dataset, model_config=TINY_MODEL, config=cfg))
+    start = _weights(first)
+    floats = [k for k in start if start[k].is_floating_point() and "running" not in k]
+    assert all(torch.allclose(tuned[k], start[k], atol=1e-5) for k in floats)
+    assert not all(torch.allclose(fresh[k], start[k], atol=1e-5) for k in floats)
+    r = train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN, init=path)
+    assert r.training["init"] == {"path": str(path), "data_fingerprint": first.data_fingerprint,
+                                  "command": None}
+    assert train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN).training["init"] is None
+
+
+def test_init_with_another_network_is_one_input_error(tiny_dataset, tmp_path):
+    path = train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN).save(tmp_path / "a.pt")
+    wider = replace(TINY_MODEL, channels=tuple(2 * c for c in TINY_MODEL.channels))
+    with pytest.raises(InputError, match=r"--init .*a\.pt: its network differs .* in channels"):
+        train(tiny_dataset, model_config=wider, config=FAST_TRAIN, init=path)
+    with pytest.raises(InputError, match="no such checkpoint"):
+        train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN, init=tmp_path / "none.pt")
