@@ -9,7 +9,8 @@ from __future__ import annotations
 import typer
 
 __all__ = ["RECIPE_OPTION", "HEAD_OPTION", "NORM_OPTION", "AUGMENT_OPTION", "CALIBRATE_OPTION",
-           "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "VIEW_OPTION", "resolve",
+           "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "VIEW_OPTION", "CHANNELS_OPTION",
+           "resolve",
            "describe"]
 
 RECIPE_OPTION = typer.Option(
@@ -31,11 +32,25 @@ VIEW_OPTION = typer.Option(None, "--view",
                                 "close-up of the mating region, rendered from the dataset's "
                                 "_assemblies geometry and cached).")
 
+CHANNELS_OPTION = typer.Option(None, "--channels",
+                               help="Override: the four convolutions' output channels, "
+                                    "comma-separated (both recipes: 16,32,64,64).")
 
-def resolve(recipe_name: str, **fields):
-    """(ModelConfig, TrainConfig) of the recipe with every non-None field overridden."""
+
+def resolve(recipe_name: str, channels: str | None = None, **fields):
+    """(ModelConfig, TrainConfig) of the recipe with every non-None field overridden;
+    ``channels`` is the ``--channels`` text ("32,64,128,128")."""
+    from rap.errors import InputError
     from rap.model.recipes import recipe
 
+    if channels is not None:
+        try:
+            widths = tuple(int(c) for c in channels.split(","))
+        except ValueError:
+            widths = ()
+        if len(widths) != 4 or min(widths) < 1:
+            raise InputError(f"--channels {channels!r}: four positive integers, e.g. 32,64,128,128")
+        fields["channels"] = widths
     return recipe(recipe_name, **fields)
 
 

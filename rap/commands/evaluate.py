@@ -13,9 +13,10 @@ from typing import Optional
 
 import typer
 
-from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, HEAD_OPTION, LR_OPTION,
-                                         MAX_ROWS_OPTION, NORM_OPTION, RECIPE_OPTION,
-                                         SCHEDULE_OPTION, VIEW_OPTION, describe, resolve)
+from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, CHANNELS_OPTION,
+                                         HEAD_OPTION, LR_OPTION, MAX_ROWS_OPTION, NORM_OPTION,
+                                         RECIPE_OPTION, SCHEDULE_OPTION, VIEW_OPTION, describe,
+                                         resolve)
 
 _NOT_GENERATED = ("reference", "custom")
 
@@ -107,6 +108,7 @@ def evaluate_command(
     schedule: Optional[str] = SCHEDULE_OPTION,
     max_rows: Optional[int] = MAX_ROWS_OPTION,
     view: Optional[str] = VIEW_OPTION,
+    channels: Optional[str] = CHANNELS_OPTION,
 ):
     """Train one model per held-out assembly / family; write accuracy tables (with the noise
     ceiling), calibration and plots."""
@@ -122,7 +124,8 @@ def evaluate_command(
     model_config, config = resolve(recipe, epochs=epochs, batch_size=batch_size, seed=seed,
                                    device=device, threshold=threshold, head=head, norm=norm,
                                    augment=augment, calibrate=calibrate, lr=lr,
-                                   schedule=schedule, max_rows=max_rows, view=view)
+                                   schedule=schedule, max_rows=max_rows, view=view,
+                                   channels=channels)
     plan = plan_folds(dataset, by, assemblies, families)
     specs = []
     for kind, names in plan:

@@ -7,9 +7,10 @@ from typing import Optional
 
 import typer
 
-from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, HEAD_OPTION, LR_OPTION,
-                                         MAX_ROWS_OPTION, NORM_OPTION, RECIPE_OPTION,
-                                         SCHEDULE_OPTION, VIEW_OPTION, describe, resolve)
+from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, CHANNELS_OPTION,
+                                         HEAD_OPTION, LR_OPTION, MAX_ROWS_OPTION, NORM_OPTION,
+                                         RECIPE_OPTION, SCHEDULE_OPTION, VIEW_OPTION, describe,
+                                         resolve)
 
 __all__ = ["register", "train_command"]
 
@@ -62,6 +63,7 @@ def train_command(
     schedule: Optional[str] = SCHEDULE_OPTION,
     max_rows: Optional[int] = MAX_ROWS_OPTION,
     view: Optional[str] = VIEW_OPTION,
+    channels: Optional[str] = CHANNELS_OPTION,
     init: Optional[Path] = typer.Option(
         None, "--init",
         help="Start from this checkpoint's weights (same recipe and network): fine-tune a model, "
@@ -76,7 +78,8 @@ def train_command(
     model_config, config = resolve(recipe, epochs=epochs, batch_size=batch_size, seed=seed,
                                    device=device, threshold=threshold, num_threads=threads,
                                    head=head, norm=norm, augment=augment, calibrate=calibrate,
-                                   lr=lr, schedule=schedule, max_rows=max_rows, view=view)
+                                   lr=lr, schedule=schedule, max_rows=max_rows, view=view,
+                                   channels=channels)
     console = make_console(stderr=True)
     bar, on_step = progress_bar(console)
     with bar:

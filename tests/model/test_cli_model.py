@@ -16,6 +16,12 @@ def test_train_command_writes_a_loadable_checkpoint(tiny_dataset, tmp_path):
     assert "holdout beta: accuracy" in res.output and f"wrote {out}" in res.output
     p = Predictor.load(out)
     assert p.training["config"]["seed"] == 3 and p.training["holdout"] == "beta"
+    wide = tmp_path / "models" / "wide.pt"
+    res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(wide), "--epochs", "1",
+                                   "--device", "cpu", "--channels", "8,8,16,16"])
+    assert res.exit_code == 0, res.output
+    assert "channels [8, 8, 16, 16]" in res.output
+    assert Predictor.load(wide).config.channels == (8, 8, 16, 16)
     tuned = tmp_path / "models" / "tuned.pt"
     res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(tuned), "--epochs", "1",
                                    "--device", "cpu", "--init", str(out), "--lr", "1e-4"])
@@ -45,6 +51,8 @@ def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
     (["train", "{tiny}", "--device", "tpu"], "unknown device"),
     (["train", "{tiny}", "--view", "side"], "view must be one of ['pair', 'pair+crop']"),
     (["train", "{tiny}", "--init", "{missing}"], "no such checkpoint"),
+    (["train", "{tiny}", "--channels", "8,16"], "--channels '8,16': four positive integers"),
+    (["evaluate", "{tiny}", "--channels", "a,b,c,d"], "four positive integers"),
     (["train", "{tiny}", "--init", "rap/data/default_model.pt", "--recipe", "paper"],
      "its network differs from this recipe's in head, norm"),
 ])
