@@ -10,6 +10,7 @@ import typer
 
 __all__ = ["RECIPE_OPTION", "HEAD_OPTION", "NORM_OPTION", "AUGMENT_OPTION", "CALIBRATE_OPTION",
            "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "VIEW_OPTION", "CHANNELS_OPTION",
+           "VAL_BY_OPTION",
            "resolve",
            "describe"]
 
@@ -35,6 +36,11 @@ VIEW_OPTION = typer.Option(None, "--view",
 CHANNELS_OPTION = typer.Option(None, "--channels",
                                help="Override: the four convolutions' output channels, "
                                     "comma-separated (both recipes: 16,32,64,64).")
+
+VAL_BY_OPTION = typer.Option(None, "--val-by",
+                             help="Override: hold out for calibration a tenth of the assemblies "
+                                  "('assemblies', both recipes) or whole assemblies holding "
+                                  "about a tenth of the rows ('rows').")
 
 
 def resolve(recipe_name: str, channels: str | None = None, **fields):
@@ -62,4 +68,6 @@ def describe(model_config, config) -> str:
             f"{model_config.norm}, head {model_config.head}; {config.epochs} epochs, lr "
             f"{config.lr} ({config.schedule}), augment {config.augment}, calibrate "
             f"{config.calibrate}" + (f", {config.max_rows} rows" if config.max_rows else "")
-            + (f", view {model_config.view}" if model_config.view != "pair" else ""))
+            + (f", view {model_config.view}" if model_config.view != "pair" else "")
+            + (", calibration split by rows" if config.calibrate and config.val_by == "rows"
+               else ""))

@@ -9,8 +9,9 @@ epoch. Augmentation ``hflip`` mirrors a pair left-right with probability 1/2 (se
 this data, since the motion is normalised downward and the physics (no gravity, noise symmetric
 about the path) is mirror-symmetric.
 
-Calibration (``calibrate``): a seeded ``val_fraction`` of the training assemblies is held out of
-training, and the temperature that minimises the log loss of P(high) on their rows is stored with
+Calibration (``calibrate``): a seeded ``val_fraction`` of the training assemblies (``val_by=
+"assemblies"``) or whole assemblies holding about that fraction of the rows (``"rows"``: one big
+assembly cannot take a fifth of the corpus from training) is held out of training, and the temperature that minimises the log loss of P(high) on their rows is stored with
 the model (``rap.model.heads.fit_temperature``).
 
 Reproducible on the CPU for a given seed (and thread count): the weights' initialisation and
@@ -66,6 +67,7 @@ class TrainConfig:
     weight_decay: float = 0.0
     calibrate: bool = False
     val_fraction: float = 0.1
+    val_by: str = "assemblies"  # the calibration split: that fraction of "assemblies" or of "rows"
     max_rows: int = 0
 
     def __post_init__(self):
@@ -75,6 +77,8 @@ class TrainConfig:
             raise InputError(f"class weighting {self.class_weighting!r}: balanced or none")
         if self.augment not in ("hflip", "none"):
             raise InputError(f"augment {self.augment!r}: hflip or none")
+        if self.val_by not in ("assemblies", "rows"):
+            raise InputError(f"val_by {self.val_by!r}: assemblies or rows")
         if self.schedule not in ("constant", "cosine"):
             raise InputError(f"schedule {self.schedule!r}: constant or cosine")
         if not (self.lr > 0 and self.weight_decay >= 0 and 0 < self.val_fraction < 1
@@ -160,13 +164,28 @@ class _Threads:
         torch.set_num_threads(self.old)
 
 
-def _split_validation(names: list[str], fraction: float, seed: int) -> list[str]:
-    """A seeded ``fraction`` of the assemblies (at least one, and never all) for calibration."""
+def _split_validation(names: list[str], fraction: float, seed: int,
+                      rows: dict[str, int] | None = None) -> list[str]:
+    """The assemblies held out for calibration, seeded: a ``fraction`` of ``names`` (at least one,
+    never all); or, given ``rows`` (assembly -> rows), whole assemblies taken in a seeded order
+    while their rows fit in ``fraction`` of all rows (an assembly larger than what is left is
+    skipped, so one big assembly does not take a tenth of the corpus from training; the
+    smallest when none fits). O(n log n) in the assemblies."""
     if len(names) < 3:
         return []
-    k = min(len(names) - 1, max(1, round(fraction * len(names))))
     rng = np.random.default_rng([seed, 7])
-    return sorted(rng.choice(sorted(names), size=k, replace=False).tolist())
+    if rows is None:
+        k = min(len(names) - 1, max(1, round(fraction * len(names))))
+        return sorted(rng.choice(sorted(names), size=k, replace=False).tolist())
+    budget = fraction * sum(rows[n] for n in names)
+    taken, total = [], 0
+    for n in rng.permutation(sorted(names)).tolist():
+        if total + rows[n] <= budget:
+            taken.append(n)
+            total += rows[n]
+    if not taken:
+        taken = [min(sorted(names), key=lambda n: rows[n])]
+    return sorted(taken)
 
 
 def _lr_at(config: TrainConfig, step: int, total: int) -> float:
@@ -220,7 +239,14 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
     if config.calibrate:
         pool = (sorted(set(store.assembly[store.index(sel)].tolist())) if store is not None
                 else sorted(set(assembly_summary_names(sel))))
-        val = _split_validation(pool, config.val_fraction, config.seed)
+        counts = None
+        if config.val_by == "rows":
+            if store is not None:
+                got, n = np.unique(store.assembly[store.index(sel)], return_counts=True)
+                counts = {str(a): int(c) for a, c in zip(got, n)}
+            else:
+                counts = {a["name"]: a["rows"] for a in assembly_summary(sel, config.threshold)}
+        val = _split_validation(pool, config.val_fraction, config.seed, counts)
         sel = select(root, exclude=exclude + tuple(val), exclude_families=exclude_families)
     device = resolve_device(config.device)
     head = model_config.head
