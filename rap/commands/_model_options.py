@@ -10,9 +10,7 @@ import typer
 
 __all__ = ["RECIPE_OPTION", "HEAD_OPTION", "NORM_OPTION", "AUGMENT_OPTION", "CALIBRATE_OPTION",
            "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "VIEW_OPTION", "CHANNELS_OPTION",
-           "VAL_BY_OPTION",
-           "resolve",
-           "describe"]
+           "VAL_BY_OPTION", "resolve", "describe"]
 
 RECIPE_OPTION = typer.Option(
     "robust", "--recipe",

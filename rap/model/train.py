@@ -11,8 +11,9 @@ about the path) is mirror-symmetric.
 
 Calibration (``calibrate``): a seeded ``val_fraction`` of the training assemblies (``val_by=
 "assemblies"``) or whole assemblies holding about that fraction of the rows (``"rows"``: one big
-assembly cannot take a fifth of the corpus from training) is held out of training, and the temperature that minimises the log loss of P(high) on their rows is stored with
-the model (``rap.model.heads.fit_temperature``).
+assembly cannot take a fifth of the corpus from training) is held out of training, and the
+temperature that minimises the log loss of P(high) on their rows is stored with the model
+(``rap.model.heads.fit_temperature``).
 
 Reproducible on the CPU for a given seed (and thread count): the weights' initialisation and
 dropout draw from a forked torch RNG seeded with ``seed``, shuffling, augmentation and the
@@ -237,16 +238,9 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
     sel = select(root, exclude=exclude, exclude_families=exclude_families)
     val: list[str] = []
     if config.calibrate:
-        pool = (sorted(set(store.assembly[store.index(sel)].tolist())) if store is not None
-                else sorted(set(assembly_summary_names(sel))))
-        counts = None
-        if config.val_by == "rows":
-            if store is not None:
-                got, n = np.unique(store.assembly[store.index(sel)], return_counts=True)
-                counts = {str(a): int(c) for a, c in zip(got, n)}
-            else:
-                counts = {a["name"]: a["rows"] for a in assembly_summary(sel, config.threshold)}
-        val = _split_validation(pool, config.val_fraction, config.seed, counts)
+        rows = _rows_per_assembly(sel, store)
+        val = _split_validation(sorted(rows), config.val_fraction, config.seed,
+                                rows if config.val_by == "rows" else None)
         sel = select(root, exclude=exclude + tuple(val), exclude_families=exclude_families)
     device = resolve_device(config.device)
     head = model_config.head
@@ -400,8 +394,12 @@ def corpus_version(root: str | Path, fingerprint: str) -> dict:
             "training_rows_fingerprint": fingerprint}
 
 
-def assembly_summary_names(sel: Selection) -> list[str]:
-    return [a["name"] for a in assembly_summary(sel, 0.95)]
+def _rows_per_assembly(sel: Selection, store: RowStore | None) -> dict[str, int]:
+    """Assembly name -> rows in the selection (from ``store`` when given)."""
+    if store is None:
+        return {a["name"]: a["rows"] for a in assembly_summary(sel, 0.95)}
+    names, counts = np.unique(store.assembly[store.index(sel)], return_counts=True)
+    return {str(a): int(c) for a, c in zip(names, counts)}
 
 
 def successes_of(scores: np.ndarray, trials: np.ndarray) -> np.ndarray:
