@@ -20,20 +20,20 @@ def progress_bar(console=None):
     from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
                                TimeElapsedColumn, TimeRemainingColumn)
 
-    bar = Progress(TextColumn("{task.description} epoch {task.fields[epoch]}"), BarColumn(),
-                   MofNCompleteColumn(),
-                   TextColumn("loss {task.fields[loss]:.4f}  acc {task.fields[acc]:.3f}"),
+    bar = Progress(TextColumn("{task.description} {task.fields[epoch]}"), BarColumn(),
+                   MofNCompleteColumn(), TextColumn("{task.fields[stats]}"),
                    TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=False)
     state = {}
 
-    def on_step(ev: dict) -> None:  # a new bar per ev["task"] (evaluate's folds)
+    def on_step(ev: dict) -> None:  # a new bar per ev["task"] (evaluate's folds, rendering)
         total = ev["steps"] * ev["epochs"]
         name = ev.get("task", "train")
         if state.get("name") != name:
             state["name"] = name
-            state["task"] = bar.add_task(name, total=total, epoch="", loss=0.0, acc=0.0)
+            state["task"] = bar.add_task(name, total=total, epoch="", stats="")
+        stats = (f"loss {ev['loss']:.4f}  acc {ev['accuracy']:.3f}" if "loss" in ev else "")
         bar.update(state["task"], completed=(ev["epoch"] - 1) * ev["steps"] + ev["step"],
-                   epoch=f"{ev['epoch']}/{ev['epochs']}", loss=ev["loss"], acc=ev["accuracy"])
+                   epoch=f"epoch {ev['epoch']}/{ev['epochs']}" if stats else "", stats=stats)
 
     return bar, on_step
 

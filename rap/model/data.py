@@ -298,9 +298,10 @@ class RowStore:
     def __len__(self) -> int:
         return len(self.scores)
 
-    def view(self, view: str) -> "RowStore":
+    def view(self, view: str, progress=None) -> "RowStore":
         """The same rows with the images of ``view`` (``rap.model.views``): the stored pair, or
-        the pair followed by channels rendered again from the geometry (made once, cached)."""
+        the pair followed by channels rendered again from the geometry (made once, cached;
+        ``progress(done, total)`` while rendering)."""
         if view == self.view_name:
             return self
         if view not in self._views:
@@ -308,7 +309,7 @@ class RowStore:
 
             from rap.model.views import extra_channels
 
-            extra = extra_channels(self, view)
+            extra = extra_channels(self, view, progress)
             other = copy.copy(self)
             other.images = np.concatenate([self.images, extra], axis=1)
             other.view_name = view

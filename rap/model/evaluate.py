@@ -83,7 +83,7 @@ def run_fold(spec: dict, on_step: Callable[[dict], None] | None = None) -> dict:
                    holdout_family=spec["assembly"] if kind == "family" else None,
                    model_config=ModelConfig.from_dict(spec["model_config"]), config=config,
                    store=store,
-                   on_step=None if on_step is None else (lambda ev: on_step({**ev, "task": task})))
+                   on_step=None if on_step is None else (lambda ev: on_step({"task": task, **ev})))
     if spec.get("save_to"):
         result.save(spec["save_to"])
     return {"kind": kind, "assembly": spec["assembly"], "metrics": result.metrics["holdout"],

@@ -207,7 +207,9 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
     path and data fingerprint go into the provenance (``training["init"]``).
 
     ``on_step`` gets after every batch ``{"epoch", "epochs", "step", "steps", "loss", "accuracy"}``
-    (running means over the epoch so far). ``command`` (the command line that asked for this
+    (running means over the epoch so far); before training on a view that is not stored, while its
+    channels are rendered, ``{"task": "render VIEW", "epoch": 1, "epochs": 1, "step": rows done,
+    "steps": rows}``. ``command`` (the command line that asked for this
     training) is stored in the checkpoint's provenance with the corpus version (``corpus_version``).
     """
     root = str(Path(root).resolve())
@@ -248,7 +250,12 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
         if store is None:
             raise InputError(f"view {model_config.view!r} needs the dataset in memory "
                              f"(raise max_memory_mb)")
-        store = store.view(model_config.view)
+        rendering = None
+        if on_step is not None:
+            def rendering(done: int, total: int) -> None:
+                on_step({"task": f"render {model_config.view}", "epoch": 1, "epochs": 1,
+                         "step": done, "steps": total})
+        store = store.view(model_config.view, rendering)
     t0 = time.perf_counter()
     with _Threads(config.num_threads), \
             torch.random.fork_rng(devices=[device.index or 0] if device.type == "cuda" else []):

@@ -46,14 +46,17 @@ def test_crop_channels_are_rendered_once_and_cached(real_dataset, tmp_path, monk
     from rap.model.data import RowStore
 
     monkeypatch.setenv("RAP_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr("rap.model.views.PROGRESS_ROWS", 32)
     store = RowStore(real_dataset)
-    wide = store.view("pair+crop")
+    calls = []
+    wide = store.view("pair+crop", lambda done, total: calls.append((done, total)))
+    assert calls == [(32, 80), (64, 80), (80, 80)]  # progress while rendering
     assert wide.images.shape == (80, 4, 64, 64) and store.images.shape == (80, 2, 64, 64)
     assert np.array_equal(wide.images[:, :2], store.images)
     assert wide.images[:, 2:].max() == 255  # fixed parts in the close-up
     assert len(list((tmp_path / "cache").glob("*.npy"))) == 1
-    again = RowStore(real_dataset).view("pair+crop")  # from the cache
-    assert np.array_equal(again.images, wide.images)
+    again = RowStore(real_dataset).view("pair+crop", lambda *a: calls.append(a))  # from the cache
+    assert np.array_equal(again.images, wide.images) and len(calls) == 3
 
 
 def test_a_crop_model_trains_and_plans_with_the_same_images(real_dataset, tmp_path, monkeypatch):
@@ -97,5 +100,6 @@ def test_train_command_takes_the_view(real_dataset, tmp_path, monkeypatch):
                                    "--device", "cpu", "--batch-size", "32"])
     assert res.exit_code == 0, res.output
     assert "view pair+crop" in res.output
+    assert "render pair+crop" in res.output and " epoch 1/1" in res.output  # both bars
     pred = Predictor.load(out)
     assert pred.view == "pair+crop" and pred.image_shape == (4, 64, 64)
