@@ -10,7 +10,7 @@ import typer
 
 __all__ = ["RECIPE_OPTION", "HEAD_OPTION", "NORM_OPTION", "AUGMENT_OPTION", "CALIBRATE_OPTION",
            "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "VIEW_OPTION", "CHANNELS_OPTION",
-           "VAL_BY_OPTION", "resolve", "describe"]
+           "HIDDEN_OPTION", "VAL_BY_OPTION", "resolve", "describe"]
 
 RECIPE_OPTION = typer.Option(
     "robust", "--recipe",
@@ -34,6 +34,9 @@ VIEW_OPTION = typer.Option(None, "--view",
 CHANNELS_OPTION = typer.Option(None, "--channels",
                                help="Override: the four convolutions' output channels, "
                                     "comma-separated (both recipes: 16,32,64,64).")
+HIDDEN_OPTION = typer.Option(None, "--hidden",
+                             help="Override: the three hidden fully connected layers' widths, "
+                                  "comma-separated (both recipes: 256,128,64).")
 
 VAL_BY_OPTION = typer.Option(None, "--val-by",
                              help="Override: hold out for calibration a tenth of the assemblies "
@@ -41,21 +44,28 @@ VAL_BY_OPTION = typer.Option(None, "--val-by",
                                   "about a tenth of the rows ('rows').")
 
 
-def resolve(recipe_name: str, channels: str | None = None, **fields):
+def resolve(recipe_name: str, channels: str | None = None, hidden: str | None = None, **fields):
     """(ModelConfig, TrainConfig) of the recipe with every non-None field overridden;
-    ``channels`` is the ``--channels`` text ("32,64,128,128")."""
-    from rap.errors import InputError
+    ``channels`` and ``hidden`` are the options' text ("32,64,128,128")."""
     from rap.model.recipes import recipe
 
     if channels is not None:
-        try:
-            widths = tuple(int(c) for c in channels.split(","))
-        except ValueError:
-            widths = ()
-        if len(widths) != 4 or min(widths) < 1:
-            raise InputError(f"--channels {channels!r}: four positive integers, e.g. 32,64,128,128")
-        fields["channels"] = widths
+        fields["channels"] = _widths("--channels", channels, 4, "32,64,128,128")
+    if hidden is not None:
+        fields["hidden"] = _widths("--hidden", hidden, 3, "512,256,128")
     return recipe(recipe_name, **fields)
+
+
+def _widths(option: str, text: str, n: int, example: str) -> tuple[int, ...]:
+    from rap.errors import InputError
+
+    try:
+        widths = tuple(int(c) for c in text.split(","))
+    except ValueError:
+        widths = ()
+    if len(widths) != n or min(widths) < 1:
+        raise InputError(f"{option} {text!r}: {n} positive integers, e.g. {example}")
+    return widths
 
 
 def describe(model_config, config) -> str:

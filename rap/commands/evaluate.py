@@ -14,7 +14,7 @@ from typing import Optional
 import typer
 
 from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, CHANNELS_OPTION,
-                                         HEAD_OPTION, LR_OPTION, MAX_ROWS_OPTION, NORM_OPTION,
+                                         HEAD_OPTION, HIDDEN_OPTION, LR_OPTION, MAX_ROWS_OPTION, NORM_OPTION,
                                          RECIPE_OPTION, SCHEDULE_OPTION, VAL_BY_OPTION,
                                          VIEW_OPTION, describe, resolve)
 
@@ -109,6 +109,7 @@ def evaluate_command(
     max_rows: Optional[int] = MAX_ROWS_OPTION,
     view: Optional[str] = VIEW_OPTION,
     channels: Optional[str] = CHANNELS_OPTION,
+    hidden: Optional[str] = HIDDEN_OPTION,
     val_by: Optional[str] = VAL_BY_OPTION,
 ):
     """Train one model per held-out assembly / family; write accuracy tables (with the noise
@@ -126,7 +127,7 @@ def evaluate_command(
                                    device=device, threshold=threshold, head=head, norm=norm,
                                    augment=augment, calibrate=calibrate, lr=lr,
                                    schedule=schedule, max_rows=max_rows, view=view,
-                                   channels=channels, val_by=val_by)
+                                   channels=channels, hidden=hidden, val_by=val_by)
     plan = plan_folds(dataset, by, assemblies, families)
     specs = []
     for kind, names in plan:

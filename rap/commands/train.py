@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, CHANNELS_OPTION,
-                                         HEAD_OPTION, LR_OPTION, MAX_ROWS_OPTION, NORM_OPTION,
+                                         HEAD_OPTION, HIDDEN_OPTION, LR_OPTION, MAX_ROWS_OPTION, NORM_OPTION,
                                          RECIPE_OPTION, SCHEDULE_OPTION, VAL_BY_OPTION,
                                          VIEW_OPTION, describe, resolve)
 
@@ -64,6 +64,7 @@ def train_command(
     max_rows: Optional[int] = MAX_ROWS_OPTION,
     view: Optional[str] = VIEW_OPTION,
     channels: Optional[str] = CHANNELS_OPTION,
+    hidden: Optional[str] = HIDDEN_OPTION,
     val_by: Optional[str] = VAL_BY_OPTION,
     init: Optional[Path] = typer.Option(
         None, "--init",
@@ -80,7 +81,7 @@ def train_command(
                                    device=device, threshold=threshold, num_threads=threads,
                                    head=head, norm=norm, augment=augment, calibrate=calibrate,
                                    lr=lr, schedule=schedule, max_rows=max_rows, view=view,
-                                   channels=channels, val_by=val_by)
+                                   channels=channels, hidden=hidden, val_by=val_by)
     console = make_console(stderr=True)
     bar, on_step = progress_bar(console)
     with bar:

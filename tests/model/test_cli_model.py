@@ -18,10 +18,12 @@ def test_train_command_writes_a_loadable_checkpoint(tiny_dataset, tmp_path):
     assert p.training["config"]["seed"] == 3 and p.training["holdout"] == "beta"
     wide = tmp_path / "models" / "wide.pt"
     res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(wide), "--epochs", "1",
-                                   "--device", "cpu", "--channels", "8,8,16,16"])
+                                   "--device", "cpu", "--channels", "8,8,16,16", "--hidden", "48,24,12"])
     assert res.exit_code == 0, res.output
     assert "channels [8, 8, 16, 16]" in res.output
+    assert "hidden [48, 24, 12]" in res.output
     assert Predictor.load(wide).config.channels == (8, 8, 16, 16)
+    assert Predictor.load(wide).config.hidden == (48, 24, 12)
     tuned = tmp_path / "models" / "tuned.pt"
     res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(tuned), "--epochs", "1",
                                    "--device", "cpu", "--init", str(out), "--lr", "1e-4"])
@@ -51,8 +53,9 @@ def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
     (["train", "{tiny}", "--device", "tpu"], "unknown device"),
     (["train", "{tiny}", "--view", "side"], "view must be one of ['pair', 'pair+crop']"),
     (["train", "{tiny}", "--init", "{missing}"], "no such checkpoint"),
-    (["train", "{tiny}", "--channels", "8,16"], "--channels '8,16': four positive integers"),
-    (["evaluate", "{tiny}", "--channels", "a,b,c,d"], "four positive integers"),
+    (["train", "{tiny}", "--channels", "8,16"], "--channels '8,16': 4 positive integers"),
+    (["evaluate", "{tiny}", "--channels", "a,b,c,d"], "4 positive integers"),
+    (["train", "{tiny}", "--hidden", "64,0,8"], "--hidden '64,0,8': 3 positive integers"),
     (["train", "{tiny}", "--init", "rap/data/default_model.pt", "--recipe", "paper"],
      "its network differs from this recipe's in head, norm"),
 ])
