@@ -8,9 +8,9 @@ from typing import Optional
 import typer
 
 from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, CHANNELS_OPTION,
-                                         HEAD_OPTION, HIDDEN_OPTION, LR_OPTION, MAX_ROWS_OPTION, NORM_OPTION,
-                                         RECIPE_OPTION, SCHEDULE_OPTION, VAL_BY_OPTION,
-                                         VIEW_OPTION, describe, resolve)
+                                         HEAD_OPTION, HIDDEN_OPTION, LR_OPTION, MAX_ROWS_OPTION,
+                                         NORM_OPTION, RECIPE_OPTION, SCHEDULE_OPTION,
+                                         VAL_BY_OPTION, VIEW_OPTION, describe, resolve)
 
 __all__ = ["register", "train_command"]
 

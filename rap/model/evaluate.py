@@ -73,7 +73,7 @@ def run_fold(spec: dict, on_step: Callable[[dict], None] | None = None) -> dict:
     """Train without the fold's test set, test on it; save the model when ``save_to`` is set.
     Returns plain values: kind, test name (``assembly``), holdout metrics, training summary,
     seconds, checkpoint path. ``on_step`` gets ``rap.model.train.train``'s events with
-    ``"task": "KIND NAME"`` added."""
+    ``"task": "KIND NAME"`` added (an event that names its own task, rendering, keeps it)."""
     t0 = time.perf_counter()
     config = TrainConfig(**spec["train_config"])
     kind = spec.get("kind", "assembly")

@@ -18,7 +18,8 @@ def test_train_command_writes_a_loadable_checkpoint(tiny_dataset, tmp_path):
     assert p.training["config"]["seed"] == 3 and p.training["holdout"] == "beta"
     wide = tmp_path / "models" / "wide.pt"
     res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(wide), "--epochs", "1",
-                                   "--device", "cpu", "--channels", "8,8,16,16", "--hidden", "48,24,12"])
+                                   "--device", "cpu", "--channels", "8,8,16,16",
+                                   "--hidden", "48,24,12"])
     assert res.exit_code == 0, res.output
     assert "channels [8, 8, 16, 16]" in res.output
     assert "hidden [48, 24, 12]" in res.output

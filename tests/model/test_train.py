@@ -100,7 +100,8 @@ def test_calibration_split_by_assemblies_or_by_rows():
     assert len(by_count) == 4 and by_count == _split_validation(names, 0.1, 0)
     by_rows = _split_validation(names, 0.1, 0, rows)
     assert "huge" not in by_rows and sum(rows[n] for n in by_rows) == 700  # a tenth of the rows
-    assert by_rows == _split_validation(names, 0.1, 0, rows) != _split_validation(names, 0.1, 1, rows)
+    assert by_rows == _split_validation(names, 0.1, 0, rows)
+    assert by_rows != _split_validation(names, 0.1, 1, rows)
     # nothing fits: the smallest; never all; too few assemblies: none
     assert _split_validation(["x", "y", "z"], 0.1, 0, {"x": 5, "y": 3, "z": 9}) == ["y"]
     assert _split_validation(["x", "y"], 0.5, 0, {"x": 1, "y": 1}) == []
