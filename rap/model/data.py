@@ -158,8 +158,9 @@ class InMemoryBatches:
         self.labels = np.empty(n, dtype=np.int64)
         self.successes = np.empty(n, dtype=np.int64)
         self.trials = np.empty(n, dtype=np.int64)
+        keys = np.empty(n, dtype=object)
         i = 0
-        for rb in iter_batches(sel.root, columns=list(LABEL_COLUMNS), filter=sel.filter):
+        for rb in iter_batches(sel.root, columns=[*LABEL_COLUMNS, "key"], filter=sel.filter):
             k = rb.num_rows
             if not k:
                 continue
@@ -167,8 +168,12 @@ class InMemoryBatches:
             self.labels[i:i + k] = labels_of(rb.column("score").to_numpy(), threshold)
             self.successes[i:i + k] = rb.column("successes").to_numpy()
             self.trials[i:i + k] = rb.column("trials").to_numpy()
+            keys[i:i + k] = rb.column("key").to_pylist()
             i += k
         assert i == n, "dataset changed while reading"
+        order = np.argsort(keys, kind="stable")  # key order, as RowStore: the same rows, the same run
+        self.images, self.labels = self.images[order], self.labels[order]
+        self.successes, self.trials = self.successes[order], self.trials[order]
 
     @classmethod
     def from_store(cls, store: "RowStore", index: np.ndarray, threshold: float,
@@ -274,26 +279,36 @@ class RowStore:
     ``index(...)`` selects rows the way ``Selection`` does, as a sorted index array. Memory: about
     8.2 KiB a row."""
 
-    def __init__(self, root: str | Path):
+    def __init__(self, root: str | Path, order: str = "key"):
+        """``order``: rows sorted by key (the default: training then depends on the rows, not
+        on the order the farm committed its shards) or ``"dataset"``, as read (the order the
+        models of docs/RESULTS.md so far were trained in; ``scripts/ablation.py`` keeps it, so
+        that its table's rows sample the same training rows)."""
+        if order not in ("key", "dataset"):
+            raise ValueError(f"order {order!r}: key or dataset")
         self.root = str(Path(root).resolve())
         t = open_dataset(self.root).to_table(
             columns=["key", "assembly", "geometry_hash", "family", "score", "successes", "trials",
                      "moving", "fixed", "direction_x", "direction_y", "image"])
-        self.images = decode_images(t.column("image")).copy()
-        self.scores = t.column("score").to_numpy()
-        self.successes = t.column("successes").to_numpy().astype(np.int64)
-        self.trials = t.column("trials").to_numpy().astype(np.int64)
-        self.keys = np.array(t.column("key").to_pylist(), dtype=object)
-        self.assembly = np.array(t.column("assembly").to_pylist(), dtype=object)
-        self.geometry_hash = np.array(t.column("geometry_hash").to_pylist(), dtype=object)
-        self.moving = np.array(t.column("moving").to_pylist(), dtype=object)
-        self.fixed = np.array(t.column("fixed").to_pylist(), dtype=object)
+        # rows in key order, not in the order the farm's workers happened to commit shards, so
+        # that seeded training is the same for the same rows
+        keys = np.array(t.column("key").to_pylist(), dtype=object)
+        order = np.argsort(keys, kind="stable") if order == "key" else np.arange(len(keys))
+        self.keys = keys[order]
+        self.images = decode_images(t.column("image"))[order]
+        self.scores = t.column("score").to_numpy()[order]
+        self.successes = t.column("successes").to_numpy().astype(np.int64)[order]
+        self.trials = t.column("trials").to_numpy().astype(np.int64)[order]
+        self.assembly = np.array(t.column("assembly").to_pylist(), dtype=object)[order]
+        self.geometry_hash = np.array(t.column("geometry_hash").to_pylist(), dtype=object)[order]
+        self.moving = np.array(t.column("moving").to_pylist(), dtype=object)[order]
+        self.fixed = np.array(t.column("fixed").to_pylist(), dtype=object)[order]
         self.direction = np.stack([t.column("direction_x").to_numpy(),
-                                   t.column("direction_y").to_numpy()], axis=1)
+                                   t.column("direction_y").to_numpy()], axis=1)[order]
         self.view_name = "pair"
         self._views: dict[str, "RowStore"] = {}
         fam = pc.if_else(pc.is_null(t.column("family")), "custom", t.column("family"))
-        self.family = np.array(fam.to_pylist(), dtype=object)
+        self.family = np.array(fam.to_pylist(), dtype=object)[order]
 
     def __len__(self) -> int:
         return len(self.scores)
