@@ -293,22 +293,22 @@ class RowStore:
         # rows in key order, not in the order the farm's workers happened to commit shards, so
         # that seeded training is the same for the same rows
         keys = np.array(t.column("key").to_pylist(), dtype=object)
-        order = np.argsort(keys, kind="stable") if order == "key" else np.arange(len(keys))
-        self.keys = keys[order]
-        self.images = decode_images(t.column("image"))[order]
-        self.scores = t.column("score").to_numpy()[order]
-        self.successes = t.column("successes").to_numpy().astype(np.int64)[order]
-        self.trials = t.column("trials").to_numpy().astype(np.int64)[order]
-        self.assembly = np.array(t.column("assembly").to_pylist(), dtype=object)[order]
-        self.geometry_hash = np.array(t.column("geometry_hash").to_pylist(), dtype=object)[order]
-        self.moving = np.array(t.column("moving").to_pylist(), dtype=object)[order]
-        self.fixed = np.array(t.column("fixed").to_pylist(), dtype=object)[order]
+        perm = np.argsort(keys, kind="stable") if order == "key" else np.arange(len(keys))
+        self.keys = keys[perm]
+        self.images = decode_images(t.column("image"))[perm]
+        self.scores = t.column("score").to_numpy()[perm]
+        self.successes = t.column("successes").to_numpy().astype(np.int64)[perm]
+        self.trials = t.column("trials").to_numpy().astype(np.int64)[perm]
+        self.assembly = np.array(t.column("assembly").to_pylist(), dtype=object)[perm]
+        self.geometry_hash = np.array(t.column("geometry_hash").to_pylist(), dtype=object)[perm]
+        self.moving = np.array(t.column("moving").to_pylist(), dtype=object)[perm]
+        self.fixed = np.array(t.column("fixed").to_pylist(), dtype=object)[perm]
         self.direction = np.stack([t.column("direction_x").to_numpy(),
-                                   t.column("direction_y").to_numpy()], axis=1)[order]
+                                   t.column("direction_y").to_numpy()], axis=1)[perm]
         self.view_name = "pair"
         self._views: dict[str, "RowStore"] = {}
         fam = pc.if_else(pc.is_null(t.column("family")), "custom", t.column("family"))
-        self.family = np.array(fam.to_pylist(), dtype=object)[order]
+        self.family = np.array(fam.to_pylist(), dtype=object)[perm]
 
     def __len__(self) -> int:
         return len(self.scores)
