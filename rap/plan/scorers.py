@@ -194,11 +194,16 @@ class LocalSimulator:
             terminate()
             return
         processes = list((getattr(ex, "_processes", None) or {}).values())
+        manager = getattr(ex, "_executor_manager_thread", None)
         ex.shutdown(wait=False, cancel_futures=True)
         for proc in processes:
             proc.terminate()
         for proc in processes:
             proc.join()
+        # The executor's manager thread joins the same workers; until it has returned, a worker it
+        # reaped can still read as alive here (waitpid's ECHILD race), so wait for it too.
+        if manager is not None:
+            manager.join(timeout=10)
 
 
 class PredictorCnn:
