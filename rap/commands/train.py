@@ -70,6 +70,11 @@ def train_command(
         None, "--init",
         help="Start from this checkpoint's weights (same recipe and network): fine-tune a model, "
              "e.g. rap/data/default_model.pt on your own labelled assemblies, or train it longer."),
+    resume: bool = typer.Option(
+        True, "--resume/--restart",
+        help="After every epoch the run's state is saved beside the checkpoint (OUT.resume); "
+             "the same command after an interruption continues from the last epoch. --restart "
+             "starts over."),
 ):
     """Train the robustness CNN with a recipe (default 'robust') and save a checkpoint."""
     from rap.commands._console import console as make_console
@@ -82,17 +87,34 @@ def train_command(
                                    head=head, norm=norm, augment=augment, calibrate=calibrate,
                                    lr=lr, schedule=schedule, max_rows=max_rows, view=view,
                                    channels=channels, hidden=hidden, val_by=val_by)
+    state = resume_path(out)
+    if not resume:
+        state.unlink(missing_ok=True)
     console = make_console(stderr=True)
     bar, on_step = progress_bar(console)
-    with bar:
-        import shlex
-        import sys
+    import shlex
+    import sys
 
-        result = train(dataset, holdout=holdout, holdout_family=holdout_family,
-                       model_config=model_config, config=config, on_step=on_step,
-                       command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]),
-                       init=init)
+    try:
+        with bar:
+            result = train(dataset, holdout=holdout, holdout_family=holdout_family,
+                           model_config=model_config, config=config, on_step=on_step,
+                           command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]),
+                           init=init, resume=state)
+    except KeyboardInterrupt:
+        from rap.errors import EXIT_INTERRUPTED
+
+        kept = (f"the epochs completed are kept in {state}; the same command resumes"
+                if state.exists() else "no epoch was completed")
+        print(f"rap-farm: interrupted; {kept}", file=sys.stderr)
+        sys.exit(EXIT_INTERRUPTED)
     path = result.save(out)
+    state.unlink(missing_ok=True)
+    r = result.training.get("resume") or {}
+    if r.get("from_epoch"):
+        typer.echo(f"resumed from epoch {r['from_epoch']} of {config.epochs} ({state})")
+    elif r.get("replaced"):
+        typer.echo(f"{state} was left by another training (other options or rows): replaced")
     tr = result.metrics["train"]
     t = result.training
     typer.echo(f"robustness CNN ({recipe}): {describe(model_config, config)}"
@@ -111,6 +133,12 @@ def train_command(
                    f"ECE {pct(h['ece'])}, noise ceiling {pct(h.get('ceiling', float('nan')))} "
                    f"({h['rows']} rows, {h['high_rows']} high)")
     typer.echo(f"wrote {path}")
+
+
+def resume_path(out: Path) -> Path:
+    """Where ``rap-farm train -o OUT`` keeps its epoch state: ``OUT.resume``."""
+    out = Path(out)
+    return out.with_name(out.name + ".resume")
 
 
 def register(app: typer.Typer) -> None:

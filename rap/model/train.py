@@ -44,6 +44,7 @@ from rap.model.data import (InMemoryBatches, RowStore, Selection, assembly_summa
                             select)
 from rap.model.metrics import classification_metrics
 from rap.model.predict import batch_outputs, resolve_device
+from rap.model.resume import capture, load_state, run_key, save_state
 
 __all__ = ["TrainConfig", "TrainResult", "train", "predict_selection", "dataset_assemblies",
            "dataset_families"]
@@ -198,13 +199,20 @@ def _lr_at(config: TrainConfig, step: int, total: int) -> float:
 def train(root: str | Path, *, holdout: str | None = None, holdout_family: str | None = None,
           model_config: ModelConfig = ModelConfig(), config: TrainConfig = TrainConfig(),
           on_step: Callable[[dict], None] | None = None, store: RowStore | None = None,
-          command: str | None = None, init: str | Path | None = None) -> TrainResult:
+          command: str | None = None, init: str | Path | None = None,
+          resume: str | Path | None = None) -> TrainResult:
     """Train on the dataset at ``root`` without the assembly ``holdout`` / the family
     ``holdout_family``; report metrics on what was held out.
 
     ``init``: start from this checkpoint's weights instead of a random initialisation (fine-tuning
     or training longer); its architecture must be ``model_config``'s (else ``InputError``). Its
     path and data fingerprint go into the provenance (``training["init"]``).
+
+    ``resume``: a file for the run's epoch state (``rap.model.resume``), written after every
+    epoch; a state there from this same run (same recipe, network, rows, hold-out, ``init``) is
+    continued from, bit-identically on the same device; one from another run is replaced.
+    ``training["resume"]`` says which (``from_epoch``, ``replaced``). The caller removes the file
+    once the checkpoint is saved.
 
     ``on_step`` gets after every batch ``{"epoch", "epochs", "step", "steps", "loss", "accuracy"}``
     (running means over the epoch so far); before training on a view that is not stored, while its
@@ -277,6 +285,7 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
             weights = [len(data) / (2 * c) if c else 1.0 for c in counts]
         else:
             weights = [1.0, 1.0]
+        fingerprint = store.fingerprint(index) if store is not None else data_fingerprint(sel)
         model = RobustnessCNN(model_config).to(device)
         if init_ckpt is not None:
             model.load_state_dict(init_ckpt.model.state_dict())
@@ -289,7 +298,21 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
         total = steps * config.epochs
         train_seconds = 0.0
         global_step = 0
-        for epoch in range(config.epochs):
+        first_epoch, resumed = 0, None
+        loss_sum, hits, seen = 0.0, 0, 0
+        if resume is not None:
+            key = run_key(config.to_dict(), model_config.to_dict(), fingerprint, holdout,
+                          holdout_family, _init_provenance(init_ckpt))
+            state = load_state(resume, key)
+            resumed = {"path": str(resume), "from_epoch": 0,
+                       "replaced": state is None and Path(resume).exists()}
+            if state is not None:
+                state.restore(model, opt, rng, device)
+                first_epoch, global_step = state.epoch, state.global_step
+                train_seconds = state.train_seconds
+                loss_sum, hits, seen = state.last["loss_sum"], state.last["hits"], state.last["seen"]
+                resumed["from_epoch"] = state.epoch
+        for epoch in range(first_epoch, config.epochs):
             model.train()
             loss_sum, hits, seen = 0.0, 0, 0
             te = time.perf_counter()
@@ -317,6 +340,10 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
                     on_step({"epoch": epoch + 1, "epochs": config.epochs, "step": step + 1,
                              "steps": steps, "loss": loss_sum / seen, "accuracy": hits / seen})
             train_seconds += time.perf_counter() - te
+            if resume is not None:
+                save_state(resume, capture(key, epoch + 1, global_step, train_seconds, model, opt,
+                                           rng, device, {"loss_sum": loss_sum, "hits": hits,
+                                                         "seen": seen}))
         model.eval()
         n_trials = int(np.bincount(data.trials).argmax())
         metrics = {"train": {"loss": loss_sum / seen, "accuracy": hits / seen,
@@ -345,7 +372,6 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
                 metrics["holdout"]["per_assembly"] = per_assembly_metrics(
                     store.assembly[hidx], scores, trials, probs, config.threshold)
     stats = image_stats(data.image_batches())
-    fingerprint = store.fingerprint(index) if store is not None else data_fingerprint(sel)
     summary = (store.summary(index, config.threshold) if store is not None
                else assembly_summary(sel, config.threshold))
     training = {"config": config.to_dict(), "model_config": model_config.to_dict(),
@@ -353,7 +379,7 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
                 "holdout": holdout, "holdout_family": holdout_family,
                 "class_counts": [int(c) for c in counts], "class_weights": weights,
                 "trials": n_trials, "device": str(device), "command": command,
-                "init": _init_provenance(init_ckpt),
+                "init": _init_provenance(init_ckpt), "resume": resumed,
                 "seconds": time.perf_counter() - t0, "code_version": __version__,
                 "torch_version": str(torch.__version__)}
     return TrainResult(model=model.cpu(), threshold=float(config.threshold),

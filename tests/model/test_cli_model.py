@@ -113,3 +113,41 @@ def test_checkpoint_carries_its_provenance(family_dataset, tmp_path):
     assert c["rows"] == 5 * 96 and c["schema_version"] == 2 and c["root_seed"] == 2
     assert len(c["training_rows_fingerprint"]) == 64
     assert c["training_rows_fingerprint"] == Predictor.load(out).data_fingerprint
+
+
+def test_train_interrupted_by_ctrl_c_resumes_with_the_same_command(tiny_dataset, tmp_path,
+                                                                   monkeypatch, capsys):
+    import rap.model.train as training
+
+    out = tmp_path / "m.pt"
+    argv = ["train", str(tiny_dataset), "--out", str(out), "--epochs", "2", "--device", "cpu"]
+    real = training.train
+
+    def ctrl_c_in_epoch_2(*args, on_step=None, **kw):
+        def step(ev):
+            if ev.get("epoch") == 2:
+                raise KeyboardInterrupt
+            on_step(ev)
+        return real(*args, on_step=step, **kw)
+
+    monkeypatch.setattr(training, "train", ctrl_c_in_epoch_2)
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    err = capsys.readouterr().err
+    state = tmp_path / "m.pt.resume"
+    assert exc.value.code == 130 and f"kept in {state}; the same command resumes" in err
+    assert state.exists() and not out.exists()
+    monkeypatch.setattr(training, "train", real)
+    res = CliRunner().invoke(app, argv)
+    assert res.exit_code == 0, res.output
+    assert f"resumed from epoch 1 of 2 ({state})" in res.output
+    assert out.exists() and not state.exists()  # the state goes once the checkpoint is saved
+    assert Predictor.load(out).training["resume"]["from_epoch"] == 1
+    monkeypatch.setattr(training, "train", ctrl_c_in_epoch_2)
+    with pytest.raises(SystemExit):
+        main(argv)
+    assert state.exists()
+    monkeypatch.setattr(training, "train", real)
+    res = CliRunner().invoke(app, argv + ["--restart"])  # the state is dropped, not resumed
+    assert res.exit_code == 0 and "resumed" not in res.output, res.output
+    assert Predictor.load(out).training["resume"]["from_epoch"] == 0 and not state.exists()

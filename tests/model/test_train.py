@@ -140,3 +140,59 @@ def test_the_same_rows_in_other_shards_train_the_same_model(tmp_path):
 
     as_read = RowStore(roots[1], order="dataset")
     assert sorted(as_read.keys) == list(RowStore(roots[1]).keys) != list(as_read.keys)
+
+
+class _Stop(Exception):
+    pass
+
+
+def _stop_at(epoch):
+    def on_step(ev):
+        if ev.get("epoch") == epoch:
+            raise _Stop
+    return on_step
+
+
+def test_an_interrupted_run_resumes_bit_identically(tiny_dataset, tmp_path):
+    # hflip draws from numpy's generator, dropout from torch's, Adam keeps moments, cosine the step
+    cfg = replace(FAST_TRAIN, epochs=3, augment="hflip", schedule="cosine")
+    whole = train(tiny_dataset, model_config=TINY_MODEL, config=cfg)
+    state = tmp_path / "m.pt.resume"
+    with pytest.raises(_Stop):  # stopped in the middle of the third epoch
+        train(tiny_dataset, model_config=TINY_MODEL, config=cfg, resume=state, on_step=_stop_at(3))
+    assert state.exists()
+    events = []
+    resumed = train(tiny_dataset, model_config=TINY_MODEL, config=cfg, resume=state,
+                    on_step=events.append)
+    assert resumed.training["resume"] == {"path": str(state), "from_epoch": 2, "replaced": False}
+    assert {e["epoch"] for e in events} == {3}  # only the last epoch was trained again
+    a, b = _weights(whole), _weights(resumed)
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    assert resumed.metrics["train"]["accuracy"] == whole.metrics["train"]["accuracy"]
+    assert whole.training["resume"] is None
+
+
+def test_a_state_left_by_another_run_is_replaced_not_resumed(tiny_dataset, tmp_path):
+    state = tmp_path / "m.pt.resume"
+    with pytest.raises(_Stop):
+        train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN, resume=state,
+              on_step=_stop_at(2))
+    other = replace(FAST_TRAIN, lr=5e-4)  # another run: its state must not be continued
+    r = train(tiny_dataset, model_config=TINY_MODEL, config=other, resume=state)
+    assert r.training["resume"] == {"path": str(state), "from_epoch": 0, "replaced": True}
+    fresh = train(tiny_dataset, model_config=TINY_MODEL, config=other)
+    a, b = _weights(r), _weights(fresh)
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    # a held-out assembly is another run too; a thread count is not
+    held = train(tiny_dataset, model_config=TINY_MODEL, config=other, resume=state, holdout="beta")
+    assert held.training["resume"]["replaced"]
+    again = train(tiny_dataset, model_config=TINY_MODEL, config=replace(other, num_threads=2),
+                  resume=state, holdout="beta")
+    assert again.training["resume"]["from_epoch"] == other.epochs
+
+
+def test_a_file_that_is_not_a_state_is_one_input_error(tiny_dataset, tmp_path):
+    state = tmp_path / "m.pt.resume"
+    state.write_text("not a state")
+    with pytest.raises(InputError, match="not a training state"):
+        train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN, resume=state)
