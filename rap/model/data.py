@@ -145,8 +145,9 @@ def image_stats(batches) -> dict:
 
 
 class InMemoryBatches:
-    """Rows in one uint8 array; each epoch a seeded permutation of them. Built from a selection
-    (read once) or from a ``RowStore`` and row indices (``from_store``: no copy of the images)."""
+    """Rows in one uint8 array; each epoch a seeded permutation of them, in key order (``index``:
+    row i is ``images[index[i]]``). Built from a selection (read once) or from a ``RowStore`` and
+    row indices (``from_store``: no copy of the images)."""
 
     def __init__(self, sel: Selection | None, threshold: float, batch_size: int):
         self.batch_size = batch_size
@@ -171,9 +172,11 @@ class InMemoryBatches:
             keys[i:i + k] = rb.column("key").to_pylist()
             i += k
         assert i == n, "dataset changed while reading"
-        order = np.argsort(keys, kind="stable")  # key order, as RowStore: the same rows, the same run
-        self.images, self.labels = self.images[order], self.labels[order]
-        self.successes, self.trials = self.successes[order], self.trials[order]
+        # key order, as RowStore: the same rows, the same run. The images stay as read and are
+        # gathered through the order (no second copy of them); the small columns are reordered.
+        self.index = np.argsort(keys, kind="stable")
+        self.labels, self.successes = self.labels[self.index], self.successes[self.index]
+        self.trials = self.trials[self.index]
 
     @classmethod
     def from_store(cls, store: "RowStore", index: np.ndarray, threshold: float,
