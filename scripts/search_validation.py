@@ -7,11 +7,13 @@ plans against these tables (a stand-in simulator that looks scores up), for each
 the plan's robustness is compared with the optimum's (the DP over the simulator's scores).
 
     python scripts/search_validation.py --set validation [--trust 0.93,0.95,0.96,0.97,0.98]
-    python scripts/search_validation.py --set test
+    python scripts/search_validation.py --set test --trust none --optimism 0,0.2,0.4,1
 
 ``validation``: 3 seeds of each of the 9 generated families that have a leave-one-family-out model,
 none of them an experiment (test) assembly; ``test``: the 14 assemblies of `rap-farm experiment`
-in docs/RESULTS.md. The tables are cached in ``--cache`` (default reports/search-validation/);
+in docs/RESULTS.md; ``unseen``: the 12 assemblies of `scripts/make_unseen.py` with an optimum in
+docs/RESULTS.md (fan-s100 has 11,253 operations), with the shipped model (labels from
+datasets/unseen). The tables are cached in ``--cache`` (default reports/search-validation/);
 building them simulates a few thousand operations (about 15 minutes on 2 cores).
 """
 
@@ -35,15 +37,21 @@ VALIDATION = ["c-shapes-s10", "c-shapes-s17", "c-shapes-s19", "convex-s11", "con
               "funnels-s12", "hub-s0", "hub-s12", "hub-s2", "knobs-s10", "knobs-s16", "knobs-s17",
               "packing-s11", "packing-s12", "packing-s19", "pegs-s1", "pegs-s15", "pegs-s22",
               "polyomino-s11", "polyomino-s14", "polyomino-s26"]
+UNSEEN = ["basketweave", "c-shapes-s100", "convex-s102", "funnels-s103", "hub-s101", "knobs-s101",
+          "packing-s100", "pegs-s103", "pentomino-6x10", "polyomino-s100", "tangram", "wall-s101"]
 
 
 def model_of(name: str) -> Path:
+    if name in UNSEEN:
+        return ROOT / "rap" / "data" / "default_model.pt"
     family = name.rsplit("-s", 1)[0] if "-s" in name and name[-1].isdigit() else None
     stem = f"holdout-family-{family}" if family else f"holdout-{name}"
     return ROOT / "reports" / "holdout-models" / f"{stem}.pt"
 
 
 def assembly_path(name: str) -> Path:
+    if name in UNSEEN:
+        return ROOT / "assemblies" / "unseen" / f"{name}.json"
     p = ROOT / "assemblies" / f"{name}.json"
     return p if p.exists() else ROOT / "datasets" / "corpus" / "_assemblies" / f"{name}.json"
 
@@ -114,7 +122,8 @@ class _LookupCnn:
     prob_high = expected_score
 
 
-def evaluate(name: str, tab: dict, trust: float | None, simulations: int) -> tuple[float, int]:
+def evaluate(name: str, tab: dict, trust: float | None, simulations: int,
+             optimism: float = 0.0) -> tuple[float, int]:
     """(R / R optimal, simulations while planning) of search on the lookup tables."""
     from rap.plan.cache import ScoreCache
     from rap.plan.planners import dp_choice
@@ -125,7 +134,7 @@ def evaluate(name: str, tab: dict, trust: float | None, simulations: int) -> tup
     graph = _graph(problem, 10**9)
     best, _ = dp_choice(graph, {s: [tab["truth"][problem.key(op)] for op in c]
                                 for s, c in graph.items()})
-    result = SearchPlanner(simulations=simulations, trust=trust).solve(
+    result = SearchPlanner(simulations=simulations, trust=trust, optimism=optimism).solve(
         problem, Scorer(_LookupSim(tab["truth"]), _LookupCnn(tab["pred"]), ScoreCache()))
     r = math.prod(tab["truth"][problem.key(s.operation)] for s in result.steps)
     return r / best[problem.whole], int(result.stats["search_simulations"])
@@ -133,14 +142,15 @@ def evaluate(name: str, tab: dict, trust: float | None, simulations: int) -> tup
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--set", choices=("validation", "test"), default="validation")
+    ap.add_argument("--set", choices=("validation", "test", "unseen"), default="validation")
     ap.add_argument("--trust", default="0.93,0.95,0.96,0.97,0.98,none")
     ap.add_argument("--simulations", type=int, default=1000, help="budget per plan")
+    ap.add_argument("--optimism", default="0", help="comma-separated optimism values to try")
     ap.add_argument("--mirror", action="store_true",
                     help="predictions averaged over each pair and its mirror image")
     ap.add_argument("--cache", type=Path, default=ROOT / "reports" / "search-validation")
     a = ap.parse_args()
-    names = VALIDATION if a.set == "validation" else TEST
+    names = {"validation": VALIDATION, "test": TEST, "unseen": UNSEEN}[a.set]
     a.cache.mkdir(parents=True, exist_ok=True)
     path = a.cache / f"{a.set}.pkl"
     tabs = pickle.loads(path.read_bytes()) if path.exists() else {}
@@ -148,7 +158,8 @@ def main() -> None:
     if missing:
         import pyarrow.dataset as ds
 
-        dataset = ds.dataset(str(ROOT / "datasets" / "corpus"), format="parquet",
+        labels = ROOT / "datasets" / ("unseen" if a.set == "unseen" else "corpus")
+        dataset = ds.dataset(str(labels), format="parquet",
                              exclude_invalid_files=True)
         print(f"building score tables for {len(missing)} assemblies ...", flush=True)
         for n in missing:
@@ -164,13 +175,14 @@ def main() -> None:
         tabs = {n: {"pred": mirror[n], "truth": tabs[n]["truth"]} for n in names}
     print(f"{a.set}: {len(names)} assemblies, search with up to {a.simulations} simulations"
           + (", mirror-averaged predictions" if a.mirror else ""))
-    print(f"{'trust':>6} {'R/R opt':>8} {'worst':>6} {'sims':>6}")
+    print(f"{'trust':>6} {'optimism':>8} {'R/R opt':>8} {'worst':>6} {'sims':>6}")
     for t in a.trust.split(","):
         trust = None if t == "none" else float(t)
-        res = [evaluate(n, tabs[n], trust, a.simulations) for n in names]
-        ratios = [r for r, _ in res]
-        print(f"{t:>6} {statistics.mean(ratios):8.3f} {min(ratios):6.3f} "
-              f"{statistics.mean(s for _, s in res):6.1f}")
+        for u in a.optimism.split(","):
+            res = [evaluate(n, tabs[n], trust, a.simulations, float(u)) for n in names]
+            ratios = [r for r, _ in res]
+            print(f"{t:>6} {u:>8} {statistics.mean(ratios):8.3f} {min(ratios):6.3f} "
+                  f"{statistics.mean(s for _, s in res):6.1f}", flush=True)
 
 
 if __name__ == "__main__":

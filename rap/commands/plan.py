@@ -188,6 +188,11 @@ def plan_command(
     trust: float = typer.Option(None, "--trust", min=0.0, max=1.0, help="Method search: "
                                 "operations predicted at this score or more are not simulated "
                                 "while planning [default: none trusted]."),
+    optimism: float = typer.Option(None, "--optimism", min=0.0, max=1.0, help="Method search "
+                                   "with --simulations: an operation not simulated counts as "
+                                   "p + OPTIMISM (1 - p) while choosing, so alternatives the model "
+                                   "may underrate get simulated (0: the model as is; 1: the "
+                                   "optimum, simulations permitting) [default: 0]."),
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
                                 "actors with --address [default: all CPUs]."),
 ):
@@ -219,7 +224,8 @@ def plan_command(
             ("--no-cache", no_cache, False), ("--samples", samples, 50),
             ("--workers", workers, None), ("--fallback-k", fallback_k, None),
             ("--beam-width", beam_width, None), ("--simulations", simulations, None),
-            ("--trust", trust, None), ("--high-probability", high_probability, None))
+            ("--trust", trust, None), ("--high-probability", high_probability, None),
+            ("--optimism", optimism, None))
             if v != default]
         if given:
             raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
@@ -256,7 +262,7 @@ def plan_command(
                                 cache_path, _local_workers(workers), err,
                                 dict(fallback_k=fallback_k, beam_width=beam_width,
                                      simulations=simulations, trust=trust,
-                                     high_probability=high_probability))
+                                     high_probability=high_probability, optimism=optimism))
         else:
             import rap.farm.service as service
 
@@ -268,7 +274,8 @@ def plan_command(
                                                            beam_width=beam_width,
                                                            simulations=simulations,
                                                            trust=trust,
-                                                           high_probability=high_probability))
+                                                           high_probability=high_probability,
+                                                           optimism=optimism))
             with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
                 result = service.run_plan(req, model_path=model_path, address=address,
                                           workers=workers,

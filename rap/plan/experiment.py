@@ -46,22 +46,27 @@ def method_planner(method: str, samples: int = 50):
     is confidently high at P(high) >= P percent; default 50), or ``search`` with options
     ``-wW`` (beam width W, used beyond the exact search's budget; ``-w`` alone with ``-b``:
     always the beam), ``-sN`` (N simulations while planning), ``-tP`` (operations predicted at
-    P percent or more are trusted, not simulated): e.g. ``search-w2-s10``, ``search-s100-t97``."""
+    P percent or more are trusted, not simulated), ``-oP`` (optimism P percent): e.g.
+    ``search-w2-s10``, ``search-s100-t97``, ``search-s100-o40``."""
     if method == "search" or method.startswith("search-"):
         from rap.plan.search import DEFAULT_BEAM, DEFAULT_MAX_OPERATIONS, SearchPlanner
 
-        opts = {"w": DEFAULT_BEAM, "s": 0, "b": DEFAULT_MAX_OPERATIONS, "t": None}
+        opts = {"w": DEFAULT_BEAM, "s": 0, "b": DEFAULT_MAX_OPERATIONS, "t": None, "o": 0}
         for part in method.split("-")[1:]:
             key, val = part[:1], part[1:]
             if key not in opts or not val.isdigit():
-                raise InputError(f"method {method!r}: search options are -wW, -sN, -bOPS, -tP")
+                raise InputError(f"method {method!r}: search options are -wW, -sN, -bOPS, -tP, "
+                                 f"-oP")
             opts[key] = int(val)
         if opts["w"] < 1 or opts["b"] < 1:
             raise InputError(f"method {method!r}: W and OPS must be >= 1")
         if opts["t"] is not None and not 0 < opts["t"] <= 100:
             raise InputError(f"method {method!r}: P must lie in 1..100")
+        if opts["o"] > 100:
+            raise InputError(f"method {method!r}: the optimism P must lie in 0..100")
         return SearchPlanner(beam_width=opts["w"], simulations=opts["s"], max_operations=opts["b"],
-                             trust=None if opts["t"] is None else opts["t"] / 100)
+                             trust=None if opts["t"] is None else opts["t"] / 100,
+                             optimism=opts["o"] / 100)
     if method.startswith("rap-"):
         opts = {"k": None, "p": None}
         for part in method.split("-")[1:]:

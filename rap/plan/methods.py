@@ -22,17 +22,20 @@ DEFAULT_METHOD = "search"
 
 def make_planner(method: str, *, samples: int = 50, fallback_k: int | None = None,
                  beam_width: int | None = None, simulations: int | None = None,
-                 trust: float | None = None, high_probability: float | None = None) -> Planner:
+                 trust: float | None = None, high_probability: float | None = None,
+                 optimism: float | None = None) -> Planner:
     """The planner named ``method`` (one of ``METHODS``); ``fallback_k`` (None: all) and
     ``high_probability`` (None: ``HIGH_PROBABILITY``, the paper's class decision) for RAP;
-    ``beam_width``, ``simulations`` and ``trust`` for search (None: its defaults)."""
+    ``beam_width``, ``simulations``, ``trust`` and ``optimism`` for search (None: its
+    defaults)."""
     if method == "rap":
         return RapPlanner(fallback_k=fallback_k,
                           high_probability=HIGH_PROBABILITY if high_probability is None
                           else high_probability)
     if method == "search":
         return SearchPlanner(beam_width=beam_width or DEFAULT_BEAM,
-                             simulations=simulations or 0, trust=trust)
+                             simulations=simulations or 0, trust=trust,
+                             optimism=optimism or 0.0)
     if method == "sim":
         return SimPlanner()
     if method == "optimal":

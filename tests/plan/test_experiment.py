@@ -89,7 +89,10 @@ def test_search_method_names():
     p = E.method_planner("search-w2-s10-b50")
     assert isinstance(p, SearchPlanner) and (p.beam_width, p.simulations, p.max_operations) == (2, 10, 50)
     assert E.uses_cnn("search-w2") and E.uses_cnn("search") and not E.uses_cnn("sim")
-    for bad in ("search-x2", "search-w", "search-w0"):
+    p = E.method_planner("search-s100-t97-o40")
+    assert (p.simulations, p.trust, p.optimism) == (100, 0.97, 0.4)
+    assert E.method_planner("search").optimism == 0.0
+    for bad in ("search-x2", "search-w", "search-w0", "search-o101"):
         with pytest.raises(Exception):
             E.method_planner(bad)
 

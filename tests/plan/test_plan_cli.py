@@ -88,6 +88,17 @@ def test_search_simulates_the_untrusted_steps_of_its_plan(tmp_path):
     for value in ("1.5", "0"):
         bad = run(src, "--trust", value, tmp_path=tmp_path)
         assert bad.returncode == 2 and "--trust" in bad.stderr and "Traceback" not in bad.stderr
+    bad = run(src, "--optimism", "1.5", tmp_path=tmp_path)
+    assert bad.returncode == 2 and "--optimism" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_full_optimism_plans_every_step_from_simulations(tmp_path):
+    src = write(ROW3, tmp_path / "row3.json")
+    out = tmp_path / "plan.json"
+    p = run(src, "--method", "search", "--simulations", "1000", "--optimism", "1", "--trials",
+            "8", "--out", out, tmp_path=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert all(s["source"] == "sim" for s in json.loads(out.read_text())["steps"])
 
 
 def test_rap_high_probability_decides_what_counts_as_high(tmp_path):

@@ -129,3 +129,31 @@ def test_trust_above_every_prediction_changes_nothing():
     assert tree(a) == tree(b) and a.stats["search_simulations"] == b.stats["search_simulations"]
     with pytest.raises(ValueError):
         SearchPlanner(trust=0.0)
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_full_optimism_finds_the_optimum_whatever_the_model_says(name):
+    problem = PlanningProblem(six(name), PARAMS)
+    best = OptimalPlanner().solve(problem, scorer(None))
+    for model in (_noisy_model(2, sd=0.3), TableCnn(lambda op: 0.5, lambda op: 0.0)):
+        r = SearchPlanner(simulations=100_000, optimism=1.0).solve(problem, scorer(model))
+        assert r.robustness == pytest.approx(best.robustness)
+        assert all(s.source == "sim" for s in r.steps)
+        # a best-first search: it never needs every operation the optimum simulates
+        assert r.stats["search_simulations"] < r.stats["operations"]
+        assert check_plan(problem.assembly, r.steps) == []
+
+
+def test_optimism_trades_simulations_for_robustness_monotonically_here():
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    best = OptimalPlanner().solve(problem, scorer(None))
+    runs = [SearchPlanner(simulations=100_000, optimism=u).solve(problem, scorer(_noisy_model()))
+            for u in (0.0, 0.5, 1.0)]
+    sims = [r.stats["search_simulations"] for r in runs]
+    assert sims[0] <= sims[1] <= sims[2]
+    assert runs[2].robustness == pytest.approx(best.robustness)
+    assert all(r.robustness <= best.robustness + 1e-12 for r in runs)
+    # the plan's reported prediction is the plain one (simulated, else predicted), not raised
+    assert runs[2].stats["predicted_robustness"] == pytest.approx(best.robustness)
+    with pytest.raises(ValueError):
+        SearchPlanner(optimism=1.5)
