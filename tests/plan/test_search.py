@@ -157,3 +157,15 @@ def test_optimism_trades_simulations_for_robustness_monotonically_here():
     assert runs[2].stats["predicted_robustness"] == pytest.approx(best.robustness)
     with pytest.raises(ValueError):
         SearchPlanner(optimism=1.5)
+
+
+def test_a_spent_budget_under_optimism_chooses_by_what_is_known():
+    # a perfect model: once the budget is spent, choosing by known scores is the optimum, while
+    # the raised scores (unsimulated operations counted as 1) would pick almost anything
+    problem = PlanningProblem(six("hexagon"), PARAMS)
+    best = OptimalPlanner().solve(problem, scorer(None))
+    perfect = TableCnn(lambda op: 0.5, score_fn=hash_score)
+    r = SearchPlanner(simulations=3, optimism=1.0).solve(problem, scorer(perfect))
+    assert r.stats["search_simulations"] == 3
+    assert r.robustness == pytest.approx(best.robustness)
+    assert r.stats["predicted_robustness"] == pytest.approx(best.robustness)
