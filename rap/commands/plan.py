@@ -213,6 +213,9 @@ def plan_command(
         raise InputError(f"--trust {trust}: choose a score in (0, 1]")
     if high_probability is not None and not 0.0 < high_probability <= 1.0:
         raise InputError(f"--high-probability {high_probability}: choose a probability in (0, 1]")
+    if (trust is not None or optimism) and not simulations:
+        err.print("[yellow]warning:[/] --trust and --optimism choose what to simulate: without "
+                  "--simulations N they change nothing")
     _check_suffix(out, "--out", (".json",))
     _check_suffix(picture, "--picture", (".png", ".svg"))
     if no_ray and address:

@@ -115,3 +115,10 @@ def test_rap_high_probability_decides_what_counts_as_high(tmp_path):
     bad = run(src, "--method", "rap", "--high-probability", "0", tmp_path=tmp_path)
     assert bad.returncode == 2 and "--high-probability" in bad.stderr
     assert "Traceback" not in bad.stderr
+
+
+def test_optimism_without_simulations_warns(tmp_path):
+    src = write(ROW3, tmp_path / "row3.json")
+    p = run(src, "--method", "search", "--optimism", "0.5", "--trials", "8", tmp_path=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert "without --simulations N they change nothing" in " ".join(p.stderr.split())
