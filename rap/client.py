@@ -49,8 +49,10 @@ def exact_json(value: Any) -> str:
     return json.dumps(value)
 
 
-def plan_body(assembly_path: str | Path, method: str, seed: int | None = None) -> bytes:
-    """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``)."""
+def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
+              options: dict | None = None) -> bytes:
+    """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``);
+    ``options``: the method's planner options (``rap.farm.api.PLANNER_OPTIONS``), those not None."""
     path = Path(assembly_path)
     try:
         data = json.loads(path.read_text(encoding="utf-8"), parse_float=Decimal, parse_int=int)
@@ -61,6 +63,9 @@ def plan_body(assembly_path: str | Path, method: str, seed: int | None = None) -
     body = {"assembly": data, "method": method}
     if seed is not None:
         body["seed"] = int(seed)
+    options = {k: v for k, v in (options or {}).items() if v is not None}
+    if options:
+        body["options"] = options
     return exact_json(body).encode("utf-8")
 
 

@@ -225,14 +225,15 @@ def plan_command(
             ("--address", address, None), ("--no-ray", no_ray, False), ("--model", model, None),
             ("--trials", trials, 100), ("--space", space, "online"), ("--cache", cache, None),
             ("--no-cache", no_cache, False), ("--samples", samples, 50),
-            ("--workers", workers, None), ("--fallback-k", fallback_k, None),
-            ("--beam-width", beam_width, None), ("--simulations", simulations, None),
-            ("--trust", trust, None), ("--high-probability", high_probability, None),
-            ("--optimism", optimism, None))
+            ("--workers", workers, None))
             if v != default]
         if given:
             raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
                              f"its own settings: model, trials, cache, workers)")
+        server_options = {"fallback_k": fallback_k, "high_probability": high_probability} \
+            if method == "rap" else {"beam_width": beam_width, "simulations": simulations,
+                                     "trust": trust, "optimism": optimism} \
+            if method == "search" else {}
     asm = load_assembly(assembly)
     root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
 
@@ -242,7 +243,7 @@ def plan_command(
         from rap.client import plan_body, post_plan
         from rap.plan.result import PlanResult
 
-        body = plan_body(assembly, method, seed)
+        body = plan_body(assembly, method, seed, server_options)
         with console.status(f"planning {asm.name} with {method} at {server} ..."):
             doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
         try:

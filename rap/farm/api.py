@@ -7,8 +7,11 @@ and ``plan_budget_s`` seconds of search; a request that reaches a budget gets th
 
 ``ServeConfig`` holds every setting of ``rap-farm serve`` (``check()`` refuses, in one line, what
 must not start: a non-loopback host without a bearer token, a short token, a bad port).
-``parse_plan_request(body)`` turns a ``POST /plan`` body into ``(assembly, method, root seed)`` or
-raises ``BadRequest(status, one line)``; numbers are parsed as decimals, exactly as
+``parse_plan_request(body)`` turns a ``POST /plan`` body into ``(assembly, method, root seed,
+planner options)`` or raises ``BadRequest(status, one line)``; the options (``PLANNER_OPTIONS``)
+are those of ``rap-farm plan`` for the method asked for (search: ``simulations``, at most
+``max_simulations``, ``trust``, ``optimism``, ``beam_width``; rap: ``fallback_k``,
+``high_probability``); numbers are parsed as decimals, exactly as
 ``rap.io.load_assembly`` reads a file, and an invalid assembly gets the CLI's
 ``AssemblyError`` text with ``assembly`` as its source. ``rap.farm.serve`` serves them over HTTP.
 """
@@ -27,9 +30,18 @@ from rap.plan.methods import DEFAULT_METHOD, METHODS
 from rap.seeds import DEFAULT_ROOT_SEED
 
 __all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "is_loopback", "REQUEST_KEYS",
-           "DETAILS_HEADER"]
+           "DETAILS_HEADER", "PLANNER_OPTIONS"]
 
-REQUEST_KEYS = ("assembly", "method", "seed")
+REQUEST_KEYS = ("assembly", "method", "seed", "options")
+# option -> (methods it applies to, kind, low, high, low inclusive): make_planner's keywords
+PLANNER_OPTIONS = {
+    "simulations": (("search",), int, 0, None, True),
+    "trust": (("search",), float, 0.0, 1.0, False),
+    "optimism": (("search",), float, 0.0, 1.0, True),
+    "beam_width": (("search",), int, 1, None, True),
+    "fallback_k": (("rap",), int, 1, None, True),
+    "high_probability": (("rap",), float, 0.0, 1.0, False),
+}
 DETAILS_HEADER = "X-Plan-Details"  # {"eval_seconds", "stats"} of an answered plan (rap.client)
 
 
@@ -92,8 +104,41 @@ def _reject_constant(name: str):
     raise ValueError(f"non-finite number {name} is not allowed")
 
 
-def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: int = 16):
-    """(assembly, method, root seed) of a ``POST /plan`` body, or ``BadRequest``."""
+def _planner_options(raw, method: str, max_simulations: int) -> dict:
+    """The ``options`` object of a request, checked against ``PLANNER_OPTIONS``."""
+    if not isinstance(raw, dict):
+        raise BadRequest(400, "options must be a JSON object, e.g. {\"simulations\": 200, "
+                              "\"optimism\": 0.1}")
+    out = {}
+    for key, value in raw.items():
+        if key not in PLANNER_OPTIONS:
+            raise BadRequest(400, f"options: unknown option {key!r} (expected "
+                                  f"{', '.join(PLANNER_OPTIONS)})")
+        methods, kind, low, high, low_inclusive = PLANNER_OPTIONS[key]
+        if method not in methods:
+            raise BadRequest(400, f"options.{key} applies to method {' or '.join(methods)}, not "
+                                  f"{method!r}")
+        ok_type = (isinstance(value, int) if kind is int
+                   else isinstance(value, (int, Decimal))) and not isinstance(value, bool)
+        if not ok_type:
+            raise BadRequest(400, f"options.{key} {value!r}: must be "
+                                  f"{'an integer' if kind is int else 'a number'}")
+        v = kind(value)
+        if (v < low if low_inclusive else v <= low) or (high is not None and v > high):
+            span = (f"lie in {'[' if low_inclusive else '('}{low}, {high}]" if high is not None
+                    else f"be >= {low}")
+            raise BadRequest(400, f"options.{key} {v}: must {span}")
+        out[key] = v
+    if out.get("simulations", 0) > max_simulations:
+        raise BadRequest(413, f"options.simulations {out['simulations']}: this service allows at "
+                              f"most {max_simulations} per request")
+    return out
+
+
+def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: int = 16,
+                       max_simulations: int = 2000):
+    """(assembly, method, root seed, planner options) of a ``POST /plan`` body, or
+    ``BadRequest``."""
     try:
         doc = json.loads(body, parse_float=Decimal, parse_int=int,
                          parse_constant=_reject_constant)
@@ -105,7 +150,8 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
                               "\"method\": ..., \"seed\": ...}")
     unknown = sorted(set(doc) - set(REQUEST_KEYS))
     if unknown:
-        raise BadRequest(400, f"unknown key {unknown[0]!r} (expected assembly, method, seed)")
+        raise BadRequest(400, f"unknown key {unknown[0]!r} (expected assembly, method, seed, "
+                              f"options)")
     if "assembly" not in doc:
         raise BadRequest(400, "missing key 'assembly' (the assembly JSON object)")
     method = doc.get("method", DEFAULT_METHOD)
@@ -114,6 +160,7 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
     seed = doc.get("seed", DEFAULT_ROOT_SEED)
     if isinstance(seed, bool) or not isinstance(seed, int) or not -(1 << 63) <= seed < (1 << 63):
         raise BadRequest(400, f"seed {seed!r}: must be an integer in [-2^63, 2^63)")
+    options = _planner_options(doc.get("options", {}), method, max_simulations)
     raw = doc["assembly"]
     if isinstance(raw, dict) and isinstance(raw.get("parts"), list) and len(raw["parts"]) > max_parts:
         raise BadRequest(413, f"assembly: {len(raw['parts'])} parts; this service plans at most "
@@ -127,4 +174,4 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
     if method == "optimal" and len(assembly) > max_optimal_parts:
         raise BadRequest(413, f"method 'optimal': {len(assembly)} parts; this service finds the "
                               f"optimum for at most {max_optimal_parts} (ask for rap or sim)")
-    return assembly, method, int(seed)
+    return assembly, method, int(seed), options

@@ -11,7 +11,8 @@ Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``)
 * ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
   actor has started (before that, Serve answers 503 or the connection is refused).
 * ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
-  "random"|"search" (default "search"), "seed": <int> (optional)}``. 200 with exactly the document that
+  "random"|"search" (default "search"), "seed": <int> (optional), "options": {...} (optional: the
+  method's planner options, ``rap.farm.api.PLANNER_OPTIONS``)}``. 200 with exactly the document that
   ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
   ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
   or ``"feasible": null`` when the request's budget (simulations, seconds) ran out. The header
@@ -71,7 +72,8 @@ from rap.plan.methods import DEFAULT_METHOD, METHODS
 from rap.plan.scorers import Budget
 from rap.seeds import DEFAULT_ROOT_SEED
 
-from rap.farm.api import DETAILS_HEADER, BadRequest, ServeConfig, parse_plan_request
+from rap.farm.api import (DETAILS_HEADER, PLANNER_OPTIONS, BadRequest, ServeConfig,
+                          parse_plan_request)
 
 __all__ = ["PlanningApp", "build_app", "run_service", "wait_healthy", "APP_NAME"]
 
@@ -104,7 +106,14 @@ _PLAN_BODY_SCHEMA = {
                              "{\"name\": ..., \"parts\": [{\"id\", \"polygon\", \"holes\"}]}"},
                 "method": {"type": "string", "enum": list(METHODS), "default": DEFAULT_METHOD},
                 "seed": {"type": "integer", "description": "Root seed of the simulator's "
-                         "randomness", "default": DEFAULT_ROOT_SEED}}}}},
+                         "randomness", "default": DEFAULT_ROOT_SEED},
+                "options": {"type": "object", "additionalProperties": False,
+                            "description": "The method's options, as `rap-farm plan`'s "
+                            "(search: simulations, trust, optimism, beam_width; rap: "
+                            "fallback_k, high_probability), e.g. {\"simulations\": 200, "
+                            "\"optimism\": 0.1}",
+                            "properties": {k: {"type": "integer" if kind is int else "number"}
+                                           for k, (_, kind, *_rest) in PLANNER_OPTIONS.items()}}}}}},
     },
     "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document)"},
                   "400": {"description": "Malformed request or invalid assembly"},
@@ -165,10 +174,10 @@ class PlanningApp:
                           {"WWW-Authenticate": "Bearer"})
         return None
 
-    def _plan(self, assembly, method: str, seed: int):
+    def _plan(self, assembly, method: str, seed: int, options: dict):
         from rap.farm.service import PlanRequest
 
-        req = PlanRequest(assembly, method, self.params, seed,
+        req = PlanRequest(assembly, method, self.params, seed, planner_options=options,
                           budget=Budget(max_simulations=self.config.max_simulations,
                                         max_seconds=self.config.plan_budget_s))
         result = self.service.plan(req)
@@ -220,9 +229,10 @@ class PlanningApp:
         if size > limit:
             return _error(413, f"request body over {limit} bytes")
         try:
-            assembly, method, seed = parse_plan_request(
+            assembly, method, seed, options = parse_plan_request(
                 bytes(body), max_parts=self.config.max_parts,
-                max_optimal_parts=self.config.max_optimal_parts)
+                max_optimal_parts=self.config.max_optimal_parts,
+                max_simulations=self.config.max_simulations)
             if method in ("rap", "search") and self.service.cnn is None:
                 raise BadRequest(400, f"method {method!r}: this service has no CNN model; ask "
                                       f"for method sim")
@@ -230,7 +240,8 @@ class PlanningApp:
             return _error(exc.status, exc.message)
         loop = asyncio.get_running_loop()
         try:
-            result = await loop.run_in_executor(self._executor, self._plan, assembly, method, seed)
+            result = await loop.run_in_executor(self._executor, self._plan, assembly, method, seed,
+                                                options)
         except RapError as exc:
             return _error(400 if isinstance(exc, InputError) else 500, str(exc))
         except Exception as exc:  # never a traceback to the client, never a dead replica

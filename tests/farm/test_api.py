@@ -19,12 +19,47 @@ SQUARES = {"name": "two", "parts": [{"id": "a", "polygon": [[0, 0], [1, 0], [1, 
 def test_a_request_is_read_exactly():
     text = ('{"assembly": {"parts": [{"id": "a", "polygon": [[0, 0], [0.1, 0], [0.1, 1], [0, 1]]},'
             '{"id": "b", "polygon": [[0.1, 0], [0.3, 0], [0.3, 1], [0.1, 1]]}]}, "seed": -4}')
-    asm, method, seed = parse_plan_request(text.encode())
+    asm, method, seed, options = parse_plan_request(text.encode())
     assert (asm.name, method, seed) == ("assembly", "search", -4)  # the default method
     assert str(asm.part("a").outer[1][0]) == "1/10"  # a decimal, not the float 0.1
-    asm, method, seed = parse_plan_request(json.dumps({"assembly": SQUARES,
-                                                       "method": "optimal"}).encode())
-    assert (asm.name, method, seed) == ("two", "optimal", DEFAULT_ROOT_SEED)
+    asm, method, seed, options = parse_plan_request(json.dumps({"assembly": SQUARES,
+                                                                "method": "optimal"}).encode())
+    assert (asm.name, method, seed, options) == ("two", "optimal", DEFAULT_ROOT_SEED, {})
+
+
+def test_planner_options_are_read_for_their_method():
+    body = {"assembly": SQUARES, "options": {"simulations": 200, "optimism": 0.1, "trust": 1}}
+    _, method, _, options = parse_plan_request(json.dumps(body).encode())
+    assert method == "search" and options == {"simulations": 200, "optimism": 0.1, "trust": 1.0}
+    assert all(type(options[k]) is float for k in ("optimism", "trust"))
+    body = {"assembly": SQUARES, "method": "rap",
+            "options": {"fallback_k": 2, "high_probability": 0.8}}
+    assert parse_plan_request(json.dumps(body).encode())[3] == {"fallback_k": 2,
+                                                               "high_probability": 0.8}
+
+
+def _with_options(options, method="search"):
+    return json.dumps({"assembly": SQUARES, "method": method, "options": options}).encode()
+
+
+@pytest.mark.parametrize("body,status,needle", [
+    (_with_options([1]), 400, "options must be a JSON object"),
+    (_with_options({"budget": 3}), 400, "unknown option 'budget'"),
+    (_with_options({"trust": 0.9}, "rap"), 400, "options.trust applies to method search"),
+    (_with_options({"fallback_k": 2}, "sim"), 400, "applies to method rap"),
+    (_with_options({"simulations": 1.5}), 400, "must be an integer"),
+    (_with_options({"simulations": True}), 400, "must be an integer"),
+    (_with_options({"optimism": "high"}), 400, "must be a number"),
+    (_with_options({"optimism": 1.5}), 400, "must lie in [0.0, 1.0]"),
+    (_with_options({"trust": 0}), 400, "must lie in (0.0, 1.0]"),
+    (_with_options({"beam_width": 0}), 400, "must be >= 1"),
+    (_with_options({"simulations": 2001}), 413, "at most 2000"),
+])
+def test_bad_planner_options_are_one_line(body, status, needle):
+    with pytest.raises(BadRequest) as exc:
+        parse_plan_request(body)
+    assert exc.value.status == status and needle in exc.value.message, exc.value.message
+    assert "\n" not in exc.value.message
 
 
 @pytest.mark.parametrize("body,status,needle", [

@@ -274,3 +274,17 @@ def test_plan_server_prints_and_writes_what_the_service_planned(service, tmp_pat
     p = _cli(dove, "--server", service, cwd=tmp_path)  # no token
     assert p.returncode == 2 and "not authorised" in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
+
+
+def test_search_options_travel_with_the_request(service, tmp_path):
+    src = ASSEMBLIES / "hexagon.json"
+    out = tmp_path / "p.json"
+    p = _cli(src, "--server", service, "--token", TOKEN, "--simulations", "1000", "--optimism",
+             "1", "--out", out, cwd=tmp_path)  # full optimism: every step from the simulator
+    assert p.returncode == 0, p.stderr
+    assert all(step["source"] == "sim" for step in json.loads(out.read_text())["steps"])
+    plain = _call(service, "/plan", _body(json.loads(src.read_text())))[1]
+    assert not all(step["source"] == "sim" for step in plain["steps"])
+    status, doc, _ = _call(service, "/plan", _body(json.loads(src.read_text()),
+                                                   options={"optimism": 2}))
+    assert status == 400 and "options.optimism 2" in doc["error"]
