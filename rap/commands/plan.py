@@ -230,10 +230,10 @@ def plan_command(
         if given:
             raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
                              f"its own settings: model, trials, cache, workers)")
-        server_options = {"fallback_k": fallback_k, "high_probability": high_probability} \
-            if method == "rap" else {"beam_width": beam_width, "simulations": simulations,
-                                     "trust": trust, "optimism": optimism} \
-            if method == "search" else {}
+        server_options = {  # the method's options travel with the request
+            "rap": {"fallback_k": fallback_k, "high_probability": high_probability},
+            "search": {"beam_width": beam_width, "simulations": simulations, "trust": trust,
+                       "optimism": optimism}}.get(method, {})
     asm = load_assembly(assembly)
     root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
 
