@@ -16,7 +16,13 @@ __all__ = ["register", "train_command"]
 
 
 def progress_bar(console=None):
-    """A rich progress bar and an ``on_step`` callback that advances it (loss, accuracy shown)."""
+    """A rich progress bar and an ``on_step`` callback that advances it (loss, accuracy shown).
+    On a console that is not a terminal (a log file, a Ray Job's log) a bar would show only at
+    the end: no bar then, one line per completed epoch instead (``epoch_lines``)."""
+    if console is not None and not console.is_terminal:
+        import contextlib
+
+        return contextlib.nullcontext(), epoch_lines(console)
     from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
                                TimeElapsedColumn, TimeRemainingColumn)
 
@@ -36,6 +42,26 @@ def progress_bar(console=None):
                    epoch=f"epoch {ev['epoch']}/{ev['epochs']}" if stats else "", stats=stats)
 
     return bar, on_step
+
+
+def epoch_lines(console):
+    """An ``on_step`` callback that prints a line when an epoch (or a view's rendering) ends:
+    ``train epoch 2/6: loss 0.2914, accuracy 0.761 (1,327 s)``."""
+    import time
+
+    t0 = time.perf_counter()
+
+    def on_step(ev: dict) -> None:
+        if ev["step"] != ev["steps"]:
+            return
+        name, elapsed = ev.get("task", "train"), time.perf_counter() - t0
+        if "loss" in ev:
+            console.print(f"{name} epoch {ev['epoch']}/{ev['epochs']}: loss {ev['loss']:.4f}, "
+                          f"accuracy {ev['accuracy']:.3f} ({elapsed:,.0f} s)", highlight=False)
+        else:
+            console.print(f"{name}: {ev['steps']:,} rows ({elapsed:,.0f} s)", highlight=False)
+
+    return on_step
 
 
 def train_command(

@@ -151,3 +151,13 @@ def test_train_interrupted_by_ctrl_c_resumes_with_the_same_command(tiny_dataset,
     res = CliRunner().invoke(app, argv + ["--restart"])  # the state is dropped, not resumed
     assert res.exit_code == 0 and "resumed" not in res.output, res.output
     assert Predictor.load(out).training["resume"]["from_epoch"] == 0 and not state.exists()
+
+
+def test_train_logs_a_line_per_epoch_when_not_on_a_terminal(tiny_dataset, tmp_path):
+    res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(tmp_path / "m.pt"),
+                                   "--epochs", "2", "--device", "cpu"])
+    assert res.exit_code == 0, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.startswith("train epoch")]
+    assert [ln.split(":")[0] for ln in lines] == ["train epoch 1/2", "train epoch 2/2"]
+    assert all("loss" in ln and "accuracy" in ln for ln in lines)
+    assert "━" not in res.output  # no bar drawn into a log
