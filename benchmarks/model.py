@@ -73,7 +73,7 @@ def main() -> None:
                                data_fingerprint="benchmark", assemblies=[], image_stats={},
                                metrics={}, training={})
         predictor = Predictor.load(path, device=args.device)
-    for n in (1, 16, 64, 256):
+    for n in (1, 4, 16, 64, 256, 1024):
         images = rng.integers(0, 256, (n, 2, 64, 64), dtype=np.uint8)
         r = rate(lambda: predictor.prob_high(images), n, args.seconds / 2)
         print(f"inference, batch {n:>3}: {r:>9,.0f} operations/s  ({1e3 * n / r:6.2f} ms a batch)")

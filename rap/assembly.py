@@ -82,6 +82,20 @@ class Part:
     def float_holes(self) -> list[list[tuple[float, float]]]:
         return [list(h) for h in self._float_rings[1:]]
 
+    def float_arrays(self) -> tuple:
+        """The rings as float64 numpy arrays [(len, 2)], outer first; built once, read-only
+        (the renderer's inner loop)."""
+        return self._float_arrays
+
+    @cached_property
+    def _float_arrays(self) -> tuple:
+        import numpy as np
+
+        arrays = tuple(np.array(ring, dtype=float).reshape(-1, 2) for ring in self._float_rings)
+        for a in arrays:
+            a.flags.writeable = False
+        return arrays
+
     @cached_property
     def _float_rings(self) -> tuple[tuple[tuple[float, float], ...], ...]:
         """The rings as floats, converted once (rendering and physics ask again and again)."""

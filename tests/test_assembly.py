@@ -84,3 +84,14 @@ def test_reference_assemblies_are_of_the_reference_family():
 
     for p in (Path(__file__).resolve().parents[1] / "assemblies").glob("*.json"):
         assert load_assembly(p).family == "reference"
+
+
+def test_float_views_of_the_rings():
+    a = parse_assembly({"parts": [{"id": "a", "polygon": _sq(0, 0, 4), "holes": [_sq(1, 1)]}]})
+    p = a.parts[0]
+    outer, hole = p.float_arrays()
+    assert outer.tolist() == [list(xy) for xy in p.float_outer()]
+    assert hole.tolist() == [list(xy) for xy in p.float_holes()[0]]
+    assert p.float_arrays()[0] is outer  # built once
+    with pytest.raises(ValueError):
+        outer[0, 0] = 9.0  # shared: read-only

@@ -67,37 +67,51 @@ def view_transform(assembly: Assembly, operation: Operation, params=None, size: 
     a, b, c, d = _rotation(operation.direction)
     R = np.array([[a, b], [c, d]])
     off = np.array(pl.start_offset)
-    fixed = np.array([xy for part in _parts(assembly, operation.fixed) for xy in part.float_outer()])
-    moving = np.array([xy for part in _parts(assembly, operation.moving) for xy in part.float_outer()])
+    fixed = np.concatenate([part.float_arrays()[0] for part in _parts(assembly, operation.fixed)])
+    moving = np.concatenate([part.float_arrays()[0] for part in _parts(assembly, operation.moving)])
     pts = np.concatenate([fixed, moving, moving + off]) @ R.T
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     span = max(hi[0] - lo[0], hi[1] - lo[1])
     k = size * (1 - 2 * MARGIN) / span
     mid = (lo + hi) / 2
+    half = size / 2
 
     def to_pixel(xy: np.ndarray) -> np.ndarray:
         q = (np.asarray(xy, dtype=float) @ R.T - mid) * k
-        return np.stack([size / 2 + q[:, 0], size / 2 - q[:, 1]], axis=1)
+        out = np.empty_like(q)
+        np.add(half, q[:, 0], out=out[:, 0])
+        np.subtract(half, q[:, 1], out=out[:, 1])
+        return out
 
     return to_pixel, tuple(off)
 
 
-def _layers(layers) -> list[tuple]:
-    """``[(value, part, translation, to_pixel)]`` -> drawable items (supersampled pixel rings),
-    computed once so that a part drawn in several images is transformed once."""
-    items = []
-    for value, part, shift, to_pixel in layers:
-        outer = to_pixel(np.array(part.float_outer()) + shift) * SUPERSAMPLE
-        holes = [to_pixel(np.array(h) + shift) * SUPERSAMPLE for h in part.float_holes()]
-        area = float(np.prod(outer.max(axis=0) - outer.min(axis=0)))
-        items.append((-area, part.id, value, [tuple(q) for q in outer.tolist()],
-                      [[tuple(q) for q in h.tolist()] for h in holes]))
+def _layers(to_pixel, layers) -> list[tuple]:
+    """``[(value, part, translation)]`` -> drawable items (supersampled pixel rings as flat
+    coordinate lists), computed once so that a part drawn in several images is transformed once.
+    Every ring goes through ``to_pixel`` in one call (the same arithmetic per point as a call per
+    ring)."""
+    rings = [ring + shift for _, part, shift in layers for ring in part.float_arrays()]
+    if not rings:
+        return []
+    px = to_pixel(np.concatenate(rings)) * SUPERSAMPLE
+    flat = px.ravel().tolist()
+    items, at = [], 0
+    for value, part, _ in layers:
+        coords = []
+        for ring in part.float_arrays():
+            if not coords:  # the outer ring's pixel box orders the drawing
+                outer = px[at:at + len(ring)]
+                area = float(np.prod(outer.max(axis=0) - outer.min(axis=0)))
+            coords.append(flat[2 * at:2 * (at + len(ring))])
+            at += len(ring)
+        items.append((-area, part.id, value, coords[0], coords[1:]))
     return items
 
 
-def _draw(layers, size: int) -> np.ndarray:
-    """Rasterise ``[(value, part, translation, to_pixel)]`` anti-aliased; uint8 [size, size]."""
-    return _draw_items(_layers(layers), size)
+def _draw(to_pixel, layers, size: int) -> np.ndarray:
+    """Rasterise ``[(value, part, translation)]`` anti-aliased; uint8 [size, size]."""
+    return _draw_items(_layers(to_pixel, layers), size)
 
 
 def _draw_items(items: list[tuple], size: int) -> np.ndarray:
@@ -109,7 +123,8 @@ def _draw_items(items: list[tuple], size: int) -> np.ndarray:
         draw.polygon(outer, fill=value)
         for h in holes:
             draw.polygon(h, fill=0)
-    return np.asarray(img.resize((size, size), Image.BOX), dtype=np.uint8)
+    small = img.resize((size, size), Image.BOX)
+    return np.frombuffer(small.tobytes(), dtype=np.uint8).reshape(size, size)
 
 
 def render_pair(assembly: Assembly, operation: Operation, params=None, size: int = 64) -> np.ndarray:
@@ -117,10 +132,10 @@ def render_pair(assembly: Assembly, operation: Operation, params=None, size: int
     to_pixel, off = view_transform(assembly, operation, params, size)
     zero = np.zeros(2)
     shift = np.array(off)
-    fixed = _layers([(FIXED, part, zero, to_pixel) for part in _parts(assembly, operation.fixed)])
+    fixed = _layers(to_pixel, [(FIXED, part, zero) for part in _parts(assembly, operation.fixed)])
     mov = _parts(assembly, operation.moving)
-    start = _draw_items(fixed + _layers([(MOVING, part, shift, to_pixel) for part in mov]), size)
-    goal = _draw_items(fixed + _layers([(MOVING, part, zero, to_pixel) for part in mov]), size)
+    start = _draw_items(fixed + _layers(to_pixel, [(MOVING, part, shift) for part in mov]), size)
+    goal = _draw_items(fixed + _layers(to_pixel, [(MOVING, part, zero) for part in mov]), size)
     return np.stack([start, goal])
 
 
@@ -142,9 +157,11 @@ def render_crop(assembly: Assembly, operation: Operation, params=None, size: int
 
     back = -approach * extent * np.asarray(operation.direction, dtype=float)
     zero = np.zeros(2)
-    fixed = _layers([(FIXED, part, zero, to_pixel) for part in _parts(assembly, operation.fixed)])
-    near = _draw_items(fixed + _layers([(MOVING, part, back, to_pixel) for part in mov_parts]), size)
-    goal = _draw_items(fixed + _layers([(MOVING, part, zero, to_pixel) for part in mov_parts]), size)
+    fixed = _layers(to_pixel, [(FIXED, part, zero) for part in _parts(assembly, operation.fixed)])
+    near = _draw_items(fixed + _layers(to_pixel, [(MOVING, part, back) for part in mov_parts]),
+                       size)
+    goal = _draw_items(fixed + _layers(to_pixel, [(MOVING, part, zero) for part in mov_parts]),
+                       size)
     return np.stack([near, goal])
 
 
@@ -173,9 +190,9 @@ def render_masks(assembly: Assembly, operation: Operation, params=None, size: in
     zero, shift = np.zeros(2), np.array(off)
     out = np.zeros((2, 2, size, size))
     for ch, sh in ((0, shift), (1, zero)):
-        out[ch, 0] = _draw([(255, p, zero, to_pixel) for p in _parts(assembly, operation.fixed)],
+        out[ch, 0] = _draw(to_pixel, [(255, p, zero) for p in _parts(assembly, operation.fixed)],
                            size) / 255.0
-        out[ch, 1] = _draw([(255, p, sh, to_pixel) for p in _parts(assembly, operation.moving)],
+        out[ch, 1] = _draw(to_pixel, [(255, p, sh) for p in _parts(assembly, operation.moving)],
                            size) / 255.0
     return out
 

@@ -47,8 +47,8 @@ def _box(points, d, n):
 def placement(assembly: Assembly, operation: Operation, start_gap: float) -> Placement:
     """The start placement of ``operation`` with gap ``start_gap`` (fraction of the extent)."""
     d, n = frame_axes(operation.direction)
-    mov = [(float(x), float(y)) for i in sorted(operation.moving) for x, y in assembly.part(i).outer]
-    fix = [(float(x), float(y)) for i in sorted(operation.fixed) for x, y in assembly.part(i).outer]
+    mov = [xy for i in sorted(operation.moving) for xy in assembly.part(i).float_outer()]
+    fix = [xy for i in sorted(operation.fixed) for xy in assembly.part(i).float_outer()]
     mu0, mu1, mw0, mw1 = _box(mov, d, n)
     fu0, fu1, fw0, fw1 = _box(fix, d, n)
     u0, u1, w0, w1 = min(mu0, fu0), max(mu1, fu1), min(mw0, fw0), max(mw1, fw1)

@@ -35,3 +35,17 @@ def test_training_data_metadata(predictor):
     near, away = predictor.shift(alike), predictor.shift(far)
     assert max(map(abs, near["foreground_z"])) < 2 < min(map(abs, away["foreground_z"]))
     assert near["coarse_difference"] < away["coarse_difference"]
+
+
+def test_cpu_batches_are_chunked_without_changing_outputs(predictor, monkeypatch):
+    import rap.model.predict as predict
+
+    rng = np.random.default_rng(1)
+    images = np.stack([synthetic_image(rng, i % 2 == 0, 10, 40) for i in range(11)])
+    whole = predictor.outputs(images)
+    monkeypatch.setattr(predict, "CPU_CHUNK", 4)
+    calls = []
+    forward = predictor.model.forward
+    monkeypatch.setattr(predictor.model, "forward", lambda x: calls.append(len(x)) or forward(x))
+    np.testing.assert_allclose(predictor.outputs(images), whole, atol=1e-5)
+    assert calls == [4, 4, 3]

@@ -102,3 +102,35 @@ def test_render_many_and_png(tmp_path):
     path = render_start_goal_png(a, o, tmp_path / "pair.png", size=96)
     with Image.open(path) as im:
         assert im.size[1] == 96 and im.size[0] > 2 * 96
+
+
+# sha256 (first 32 hex digits) of render_pair then render_crop bytes for every candidate of the
+# whole assembly, recorded with the renderer the shipped model's corpus was made with, under this
+# Pillow (its rasteriser decides the anti-aliased edges; another version may draw them otherwise).
+GOLDEN_PILLOW = "13.0.0"
+GOLDEN = {"triangles": (3, "30fef98e2b90ef5c1da735ade38f6aee"),
+          "hexagon": (10, "0588371e86bfc224d7f76fcc16e0032b")}
+
+
+@pytest.mark.parametrize("name", sorted(GOLDEN))
+def test_images_are_the_ones_the_model_was_trained_on(name):
+    """A faster renderer must draw the same bytes: the network learned these pixels."""
+    import hashlib
+
+    import PIL
+
+    from rap.io import load_assembly
+    from rap.plan.problem import PlanningProblem
+    from rap.render.images import render_crop
+    from rap.sim.params import DEFAULT_PARAMS
+
+    if PIL.__version__ != GOLDEN_PILLOW:
+        pytest.skip(f"digests recorded under Pillow {GOLDEN_PILLOW}, not {PIL.__version__}")
+    asm = load_assembly(Path(__file__).resolve().parents[2] / "assemblies" / f"{name}.json")
+    problem = PlanningProblem(asm, DEFAULT_PARAMS, 0, "online")
+    ops = problem.candidates(problem.whole)
+    h = hashlib.sha256()
+    for op in ops:
+        h.update(render_pair(asm, op).tobytes())
+        h.update(render_crop(asm, op).tobytes())
+    assert (len(ops), h.hexdigest()[:32]) == GOLDEN[name]
