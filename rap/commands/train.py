@@ -44,6 +44,13 @@ def progress_bar(console=None):
     return bar, on_step
 
 
+def _mtime(path: Path) -> int | None:
+    try:
+        return path.stat().st_mtime_ns
+    except FileNotFoundError:
+        return None
+
+
 def epoch_lines(console):
     """An ``on_step`` callback that prints a line when an epoch (or a view's rendering) ends:
     ``train epoch 2/6: loss 0.2914, accuracy 0.761 (1,327 s)``."""
@@ -116,6 +123,7 @@ def train_command(
     state = resume_path(out)
     if not resume:
         state.unlink(missing_ok=True)
+    state_before = _mtime(state)
     console = make_console(stderr=True)
     bar, on_step = progress_bar(console)
     import shlex
@@ -130,8 +138,13 @@ def train_command(
     except KeyboardInterrupt:
         from rap.errors import EXIT_INTERRUPTED
 
-        kept = (f"the epochs completed are kept in {state}; the same command resumes"
-                if state.exists() else "no epoch was completed")
+        now = _mtime(state)
+        if now is not None and now != state_before:
+            kept = f"the epochs completed are kept in {state}; the same command resumes"
+        elif now is not None:  # left by an earlier run: resumed from, or to be replaced
+            kept = f"no epoch was completed in this run; {state} is as it was"
+        else:
+            kept = "no epoch was completed"
         print(f"rap-farm: interrupted; {kept}", file=sys.stderr)
         sys.exit(EXIT_INTERRUPTED)
     path = result.save(out)

@@ -147,6 +147,15 @@ def test_train_interrupted_by_ctrl_c_resumes_with_the_same_command(tiny_dataset,
     with pytest.raises(SystemExit):
         main(argv)
     assert state.exists()
+    capsys.readouterr()
+
+    def ctrl_c_at_once(*args, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(training, "train", ctrl_c_at_once)  # before this run's first epoch
+    with pytest.raises(SystemExit):
+        main(argv)
+    assert f"no epoch was completed in this run; {state} is as it was" in capsys.readouterr().err
     monkeypatch.setattr(training, "train", real)
     res = CliRunner().invoke(app, argv + ["--restart"])  # the state is dropped, not resumed
     assert res.exit_code == 0 and "resumed" not in res.output, res.output
