@@ -8,6 +8,7 @@ the plan's robustness is compared with the optimum's (the DP over the simulator'
 
     python scripts/search_validation.py --set validation [--trust 0.93,0.95,0.96,0.97,0.98]
     python scripts/search_validation.py --set test --trust none --optimism 0,0.2,0.4,1
+    python scripts/search_validation.py --set unseen --model OTHER.pt --trust none --optimism 0,0.1
 
 ``validation``: 3 seeds of each of the 9 generated families that have a leave-one-family-out model,
 none of them an experiment (test) assembly; ``test``: the 14 assemblies of `rap-farm experiment`
@@ -64,14 +65,15 @@ def problem_of(name: str):
     return PlanningProblem(load_assembly(assembly_path(name)), SimParams(), SEED)
 
 
-def predictions(name: str, mirror: bool = False) -> dict:
-    """key -> the hold-out model's expected score, for every operation of the graph."""
+def predictions(name: str, mirror: bool = False, model: Path | None = None) -> dict:
+    """key -> the hold-out model's (or ``model``'s) expected score, for every operation of the
+    graph."""
     from rap.plan.scorers import PredictorCnn
     from rap.plan.search import _graph
 
     problem = problem_of(name)
     ops = [op for c in _graph(problem, 10**9).values() for op in c]
-    cnn = PredictorCnn.load(model_of(name), engine="auto", mirror=mirror)
+    cnn = PredictorCnn.load(model or model_of(name), engine="auto", mirror=mirror)
     return dict(zip([problem.key(op) for op in ops],
                     map(float, cnn.expected_score(problem, ops))))
 
@@ -148,8 +150,15 @@ def main() -> None:
     ap.add_argument("--optimism", default="0", help="comma-separated optimism values to try")
     ap.add_argument("--mirror", action="store_true",
                     help="predictions averaged over each pair and its mirror image")
+    ap.add_argument("--model", type=Path,
+                    help="predictions of this checkpoint instead (--set unseen: one no model "
+                         "here was trained on); the same simulator scores")
     ap.add_argument("--cache", type=Path, default=ROOT / "reports" / "search-validation")
     a = ap.parse_args()
+    if a.model is not None and a.set != "unseen":
+        ap.error("--model needs --set unseen (the other sets' models are hold-out models)")
+    if a.model is not None and a.mirror:
+        ap.error("--model and --mirror: one at a time")
     names = {"validation": VALIDATION, "test": TEST, "unseen": UNSEEN}[a.set]
     a.cache.mkdir(parents=True, exist_ok=True)
     path = a.cache / f"{a.set}.pkl"
@@ -173,8 +182,20 @@ def main() -> None:
                 mirror[n] = predictions(n, mirror=True)
                 mpath.write_bytes(pickle.dumps(mirror))
         tabs = {n: {"pred": mirror[n], "truth": tabs[n]["truth"]} for n in names}
+    if a.model is not None:  # the same simulator scores, another checkpoint's predictions
+        import hashlib
+
+        digest = hashlib.sha256(a.model.read_bytes()).hexdigest()[:12]
+        ppath = a.cache / f"{a.set}-model-{digest}.pkl"
+        other = pickle.loads(ppath.read_bytes()) if ppath.exists() else {}
+        for n in names:
+            if n not in other:
+                other[n] = predictions(n, model=a.model)
+                ppath.write_bytes(pickle.dumps(other))
+        tabs = {n: {"pred": other[n], "truth": tabs[n]["truth"]} for n in names}
     print(f"{a.set}: {len(names)} assemblies, search with up to {a.simulations} simulations"
-          + (", mirror-averaged predictions" if a.mirror else ""))
+          + (", mirror-averaged predictions" if a.mirror else "")
+          + (f", predictions of {a.model}" if a.model else ""))
     print(f"{'trust':>6} {'optimism':>8} {'R/R opt':>8} {'worst':>6} {'sims':>6}")
     for t in a.trust.split(","):
         trust = None if t == "none" else float(t)
