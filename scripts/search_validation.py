@@ -142,6 +142,32 @@ def evaluate(name: str, tab: dict, trust: float | None, simulations: int,
     return r / best[problem.whole], int(result.stats["search_simulations"])
 
 
+def prediction_metrics(name: str, tab: dict) -> dict:
+    """How the predictions match the simulator on the whole graph: accuracy of the class at 0.95,
+    mean absolute error, mean |log p - log s| (scores floored at 0.01: the DP multiplies), and
+    the fraction of candidate pairs of one subassembly, whose simulated scores differ by at least
+    0.05, that the predictions order the same way (what the DP's choices rest on)."""
+    from rap.plan.search import _graph
+
+    problem = problem_of(name)
+    pred, truth = tab["pred"], tab["truth"]
+    p = np.array([pred[k] for k in truth])
+    t = np.array(list(truth.values()))
+    good = pairs = 0
+    for cands in _graph(problem, 10**9).values():
+        ks = [problem.key(op) for op in cands]
+        for i, a in enumerate(ks):
+            for b in ks[i + 1:]:
+                if abs(truth[a] - truth[b]) >= 0.05:
+                    pairs += 1
+                    good += (pred[a] - pred[b]) * (truth[a] - truth[b]) > 0
+    return {"accuracy": float(((p >= 0.95) == (t >= 0.95)).mean()),
+            "mae": float(np.abs(p - t).mean()),
+            "log_error": float(np.abs(np.log(np.maximum(p, 0.01))
+                                      - np.log(np.maximum(t, 0.01))).mean()),
+            "pair_order": good / pairs if pairs else float("nan")}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--set", choices=("validation", "test", "unseen"), default="validation")
@@ -153,6 +179,8 @@ def main() -> None:
     ap.add_argument("--model", type=Path,
                     help="predictions of this checkpoint instead (--set unseen: one no model "
                          "here was trained on); the same simulator scores")
+    ap.add_argument("--metrics", action="store_true",
+                    help="also the predictions' agreement with the simulator on the whole graphs")
     ap.add_argument("--cache", type=Path, default=ROOT / "reports" / "search-validation")
     a = ap.parse_args()
     if a.model is not None and a.set != "unseen":
@@ -196,6 +224,10 @@ def main() -> None:
     print(f"{a.set}: {len(names)} assemblies, search with up to {a.simulations} simulations"
           + (", mirror-averaged predictions" if a.mirror else "")
           + (f", predictions of {a.model}" if a.model else ""))
+    if a.metrics:
+        ms = [prediction_metrics(n, tabs[n]) for n in names]
+        print("predictions on the whole graphs (mean over assemblies): "
+              + ", ".join(f"{k} {statistics.mean(m[k] for m in ms):.3f}" for k in ms[0]))
     print(f"{'trust':>6} {'optimism':>8} {'R/R opt':>8} {'worst':>6} {'sims':>6}")
     for t in a.trust.split(","):
         trust = None if t == "none" else float(t)
