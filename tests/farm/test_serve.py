@@ -115,7 +115,7 @@ def _local_plan(assembly, method: str, seed: int, processes: int = 1) -> dict:
     from rap.plan.scorers import LocalSimulator, PredictorCnn, Scorer
     from rap.sim.params import SimParams
 
-    cnn = PredictorCnn.load(default_model_path(), engine="auto") if method == "rap" else None
+    cnn = PredictorCnn.load(default_model_path(), engine="torch") if method == "rap" else None
     problem = PlanningProblem(assembly, SimParams(trials=TRIALS), seed)
     sim = LocalSimulator(processes=processes)
     try:
