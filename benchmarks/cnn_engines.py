@@ -17,13 +17,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 DEFAULT = ["hub-s101", "convex-s102", "basketweave", "pegs-s103", "wall-s101"]
-
-
-class _NoSim:
-    def simulate_many(self, problem, ops):
-        raise AssertionError("no simulation expected")
 
 
 def main() -> None:
@@ -40,6 +36,7 @@ def main() -> None:
     from rap.plan.problem import PlanningProblem
     from rap.plan.scorers import PredictorCnn, Scorer
     from rap.plan.search import SearchPlanner
+    from search import _NoSim  # benchmarks/search.py: a simulator that must not be called
 
     params, seed = _params_and_seed(args.dataset)
     engines = {"numpy": PredictorCnn.load(args.model, engine="auto"),
