@@ -4,7 +4,8 @@
 
 Each ``LABEL=PATHS`` is one checkpoint or, with ``+``, an ensemble whose P(high) is the mean of its
 members'. Every model sees the images of its own view (``RowStore.view``: the close-up is rendered
-again from ``DATASET/_assemblies``). Prints per label the mean accuracy over assemblies, the pooled
+again from ``DATASET/_assemblies``) and the geometric descriptors it was trained with
+(``RowStore.with_descriptors``). Prints per label the mean accuracy over assemblies, the pooled
 accuracy and ECE, and each assembly's accuracy; then each assembly's noise ceiling. For one model,
 ``rap-farm score`` gives the same figures with per-class columns.
 """
@@ -48,7 +49,9 @@ def main() -> None:
             if p.view not in images:
                 images[p.view] = store.view(p.view).images
             im = images[p.view]
-            probs[path] = np.concatenate([p.prob_high(im[i:i + 512])
+            d = store.with_descriptors(p.descriptors).descriptors
+            probs[path] = np.concatenate([p.prob_high(im[i:i + 512],
+                                                      None if d is None else d[i:i + 512])
                                           for i in range(0, len(im), 512)])
         return probs[path]
 

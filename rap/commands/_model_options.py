@@ -10,7 +10,7 @@ import typer
 
 __all__ = ["RECIPE_OPTION", "HEAD_OPTION", "NORM_OPTION", "AUGMENT_OPTION", "CALIBRATE_OPTION",
            "LR_OPTION", "SCHEDULE_OPTION", "MAX_ROWS_OPTION", "VIEW_OPTION", "CHANNELS_OPTION",
-           "HIDDEN_OPTION", "VAL_BY_OPTION", "resolve", "describe"]
+           "HIDDEN_OPTION", "VAL_BY_OPTION", "DESCRIPTORS_OPTION", "resolve", "describe"]
 
 RECIPE_OPTION = typer.Option(
     "robust", "--recipe",
@@ -38,22 +38,49 @@ HIDDEN_OPTION = typer.Option(None, "--hidden",
                              help="Override: the three hidden fully connected layers' widths, "
                                   "comma-separated (both recipes: 256,128,64).")
 
+DESCRIPTORS_OPTION = typer.Option(
+    None, "--descriptors",
+    help="Override: geometric descriptors of each operation beside the images: 'all' (the "
+         "removal range's width and margins from the exact NDBG, contacts, depth, sizes; "
+         "rap.model.descriptors), 'none' (both recipes: images only), or a comma-separated "
+         "list of their names.")
+
 VAL_BY_OPTION = typer.Option(None, "--val-by",
                              help="Override: hold out for calibration a tenth of the assemblies "
                                   "('assemblies', both recipes) or whole assemblies holding "
                                   "about a tenth of the rows ('rows').")
 
 
-def resolve(recipe_name: str, channels: str | None = None, hidden: str | None = None, **fields):
+def resolve(recipe_name: str, channels: str | None = None, hidden: str | None = None,
+            descriptors: str | None = None, **fields):
     """(ModelConfig, TrainConfig) of the recipe with every non-None field overridden;
-    ``channels`` and ``hidden`` are the options' text ("32,64,128,128")."""
+    ``channels``, ``hidden`` and ``descriptors`` are the options' text ("32,64,128,128",
+    "all")."""
     from rap.model.recipes import recipe
 
+    if descriptors is not None:
+        fields["descriptors"] = _descriptor_names(descriptors)
     if channels is not None:
         fields["channels"] = _widths("--channels", channels, 4, "32,64,128,128")
     if hidden is not None:
         fields["hidden"] = _widths("--hidden", hidden, 3, "512,256,128")
     return recipe(recipe_name, **fields)
+
+
+def _descriptor_names(text: str) -> tuple[str, ...]:
+    from rap.errors import InputError
+    from rap.model.descriptors import DESCRIPTORS
+
+    if text == "all":
+        return DESCRIPTORS
+    if text == "none":
+        return ()
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    bad = [n for n in names if n not in DESCRIPTORS]
+    if bad or not names:
+        raise InputError(f"--descriptors {text!r}: all, none or names of "
+                         f"{', '.join(DESCRIPTORS)}")
+    return names
 
 
 def _widths(option: str, text: str, n: int, example: str) -> tuple[int, ...]:
@@ -77,5 +104,7 @@ def describe(model_config, config) -> str:
             f"{config.lr} ({config.schedule}), augment {config.augment}, calibrate "
             f"{config.calibrate}" + (f", {config.max_rows} rows" if config.max_rows else "")
             + (f", view {model_config.view}" if model_config.view != "pair" else "")
+            + (f", {len(model_config.descriptors)} descriptors" if model_config.descriptors
+               else "")
             + (", calibration split by rows" if config.calibrate and config.val_by == "rows"
                else ""))

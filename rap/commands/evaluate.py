@@ -14,9 +14,10 @@ from typing import Optional
 import typer
 
 from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, CHANNELS_OPTION,
-                                         HEAD_OPTION, HIDDEN_OPTION, LR_OPTION, MAX_ROWS_OPTION,
-                                         NORM_OPTION, RECIPE_OPTION, SCHEDULE_OPTION,
-                                         VAL_BY_OPTION, VIEW_OPTION, describe, resolve)
+                                         DESCRIPTORS_OPTION, HEAD_OPTION, HIDDEN_OPTION, LR_OPTION,
+                                         MAX_ROWS_OPTION, NORM_OPTION, RECIPE_OPTION,
+                                         SCHEDULE_OPTION, VAL_BY_OPTION, VIEW_OPTION, describe,
+                                         resolve)
 
 _NOT_GENERATED = ("reference", "custom")
 
@@ -108,6 +109,7 @@ def evaluate_command(
     schedule: Optional[str] = SCHEDULE_OPTION,
     max_rows: Optional[int] = MAX_ROWS_OPTION,
     view: Optional[str] = VIEW_OPTION,
+    descriptors: Optional[str] = DESCRIPTORS_OPTION,
     channels: Optional[str] = CHANNELS_OPTION,
     hidden: Optional[str] = HIDDEN_OPTION,
     val_by: Optional[str] = VAL_BY_OPTION,
@@ -127,7 +129,8 @@ def evaluate_command(
                                    device=device, threshold=threshold, head=head, norm=norm,
                                    augment=augment, calibrate=calibrate, lr=lr,
                                    schedule=schedule, max_rows=max_rows, view=view,
-                                   channels=channels, hidden=hidden, val_by=val_by)
+                                   channels=channels, hidden=hidden, val_by=val_by,
+                                   descriptors=descriptors)
     plan = plan_folds(dataset, by, assemblies, families)
     specs = []
     for kind, names in plan:

@@ -8,9 +8,10 @@ from typing import Optional
 import typer
 
 from rap.commands._model_options import (AUGMENT_OPTION, CALIBRATE_OPTION, CHANNELS_OPTION,
-                                         HEAD_OPTION, HIDDEN_OPTION, LR_OPTION, MAX_ROWS_OPTION,
-                                         NORM_OPTION, RECIPE_OPTION, SCHEDULE_OPTION,
-                                         VAL_BY_OPTION, VIEW_OPTION, describe, resolve)
+                                         DESCRIPTORS_OPTION, HEAD_OPTION, HIDDEN_OPTION, LR_OPTION,
+                                         MAX_ROWS_OPTION, NORM_OPTION, RECIPE_OPTION,
+                                         SCHEDULE_OPTION, VAL_BY_OPTION, VIEW_OPTION, describe,
+                                         resolve)
 
 __all__ = ["register", "train_command"]
 
@@ -96,6 +97,7 @@ def train_command(
     schedule: Optional[str] = SCHEDULE_OPTION,
     max_rows: Optional[int] = MAX_ROWS_OPTION,
     view: Optional[str] = VIEW_OPTION,
+    descriptors: Optional[str] = DESCRIPTORS_OPTION,
     channels: Optional[str] = CHANNELS_OPTION,
     hidden: Optional[str] = HIDDEN_OPTION,
     val_by: Optional[str] = VAL_BY_OPTION,
@@ -119,7 +121,8 @@ def train_command(
                                    device=device, threshold=threshold, num_threads=threads,
                                    head=head, norm=norm, augment=augment, calibrate=calibrate,
                                    lr=lr, schedule=schedule, max_rows=max_rows, view=view,
-                                   channels=channels, hidden=hidden, val_by=val_by)
+                                   channels=channels, hidden=hidden, val_by=val_by,
+                                   descriptors=descriptors)
     state = resume_path(out)
     if not resume:
         state.unlink(missing_ok=True)

@@ -5,7 +5,10 @@ assembly operation), float in [0, 1] — ``RobustnessCNN.forward`` takes uint8 o
 uint8 itself, so callers can keep images as uint8 until the batch is on the device. Output: the
 head's logits (``rap.model.heads``): with ``head="class"`` (the paper's) the two classes, index 0
 "not high" and index 1 "high" (score >= the threshold stored in the checkpoint, 0.95 in the
-paper); with ``head="binomial"`` one logit of the per-trial success probability.
+paper); with ``head="binomial"`` one logit of the per-trial success probability. A network configured with
+``descriptors`` (names from ``rap.model.descriptors.DESCRIPTORS``) also takes those geometric
+numbers of each operation, float [N, k]: batch-normalised and appended to the flattened
+convolution features, before the fully connected layers.
 
 Four convolutions with 4x4 kernels, each followed by ReLU and 2x2 max-pooling (``norm="batch"``:
 batch normalisation after each convolution); three fully connected layers with ReLU and dropout;
@@ -46,6 +49,7 @@ class ModelConfig:
     norm: str = "none"
     head: str = "class"
     view: str = "pair"  # input images (rap.render.images.VIEWS): in_channels must match
+    descriptors: tuple[str, ...] = ()  # geometric descriptors beside the images (none: images only)
 
     def __post_init__(self):
         from rap.render.images import view_channels
@@ -60,6 +64,13 @@ class ModelConfig:
         # from_dict hands lists over; keep the dataclass hashable and comparable
         object.__setattr__(self, "channels", tuple(int(c) for c in self.channels))
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
+        object.__setattr__(self, "descriptors", tuple(str(d) for d in self.descriptors))
+        from rap.model.descriptors import DESCRIPTORS
+
+        unknown = [d for d in self.descriptors if d not in DESCRIPTORS]
+        if unknown or len(set(self.descriptors)) != len(self.descriptors):
+            raise ValueError(f"ModelConfig: descriptors must be distinct names of "
+                             f"{', '.join(DESCRIPTORS)} (got {', '.join(self.descriptors)})")
         if len(self.channels) != 4 or len(self.hidden) != 3:
             raise ValueError("ModelConfig: four convolution and three hidden layers")
         if self.feature_size() < 1:
@@ -77,6 +88,10 @@ class ModelConfig:
         d = asdict(self)
         d["channels"] = list(self.channels)
         d["hidden"] = list(self.hidden)
+        if self.descriptors:  # absent when none: checkpoints of images-only networks as before
+            d["descriptors"] = list(self.descriptors)
+        else:
+            del d["descriptors"]
         return d
 
     @classmethod
@@ -101,6 +116,9 @@ class RobustnessCNN(nn.Module):
             c_in = c_out
         self.features = nn.Sequential(*layers)
         width = c_in * config.feature_size() ** 2
+        if config.descriptors:
+            self.descriptor_norm = nn.BatchNorm1d(len(config.descriptors))
+            width += len(config.descriptors)
         head: list[nn.Module] = [nn.Flatten()]
         for h in config.hidden:
             head += [nn.Linear(width, h), nn.ReLU(inplace=True), nn.Dropout(config.dropout)]
@@ -111,10 +129,16 @@ class RobustnessCNN(nn.Module):
         # channels-last convolutions and pooling: 2-3x faster on CPU (oneDNN), same results
         self.to(memory_format=torch.channels_last)
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
+    def forward(self, x: torch.Tensor, descriptors: torch.Tensor | None = None) -> torch.Tensor:
+        """Logits of images x [N, C, 64, 64] (and, when configured, descriptors [N, k])."""
         if x.dtype == torch.uint8:
             x = x.float().div_(255.0)
-        return self.head(self.features(x.contiguous(memory_format=torch.channels_last)))
+        h = self.features(x.contiguous(memory_format=torch.channels_last))
+        if self.config.descriptors:
+            if descriptors is None:
+                raise ValueError("this network takes geometric descriptors beside the images")
+            h = torch.cat([h.flatten(1), self.descriptor_norm(descriptors.float())], dim=1)
+        return self.head(h)  # head[0] flattens (a no-op on the concatenated features)
 
     def num_parameters(self) -> int:
         return sum(p.numel() for p in self.parameters())

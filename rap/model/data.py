@@ -5,7 +5,9 @@ it on the device. A selection that fits in ``max_memory_mb`` is read once into o
 shuffled each epoch by a seeded permutation of row indices (``InMemoryBatches``); a larger one is
 streamed every epoch, shards in a seeded order through a seeded shuffle buffer
 (``StreamingBatches``). Both are reproducible for a given ``numpy.random.Generator`` and yield
-``(images, labels, successes, trials)`` batches. ``RowStore`` holds a whole dataset in memory
+``(images, labels, successes, trials)`` batches, followed by the rows' geometric descriptors
+(``rap.model.descriptors``) when a ``RowStore`` was given them (``with_descriptors``; in memory
+only). ``RowStore`` holds a whole dataset in memory
 once, so that many folds (cross-validation, ablations) select rows by index without reading the
 shards again.
 
@@ -152,6 +154,7 @@ class InMemoryBatches:
     def __init__(self, sel: Selection | None, threshold: float, batch_size: int):
         self.batch_size = batch_size
         self.index = None
+        self.descriptors = None  # float32 [N, k] in the order of labels, when given
         if sel is None:
             return
         n = sel.count()
@@ -187,6 +190,8 @@ class InMemoryBatches:
         b.labels = labels_of(store.scores[b.index], threshold)
         b.successes = store.successes[b.index]
         b.trials = store.trials[b.index]
+        if store.descriptors is not None:
+            b.descriptors = store.descriptors[b.index]
         return b
 
     def __len__(self) -> int:
@@ -206,7 +211,8 @@ class InMemoryBatches:
         for s in range(0, len(order), self.batch_size):
             idx = np.sort(order[s:s + self.batch_size])  # sorted gather: faster, same batch
             rows = idx if self.index is None else self.index[idx]
-            yield self.images[rows], self.labels[idx], self.successes[idx], self.trials[idx]
+            batch = (self.images[rows], self.labels[idx], self.successes[idx], self.trials[idx])
+            yield batch if self.descriptors is None else batch + (self.descriptors[idx],)
 
 
 class StreamingBatches:
@@ -310,6 +316,7 @@ class RowStore:
                                    t.column("direction_y").to_numpy()], axis=1)[perm]
         self.view_name = "pair"
         self._views: dict[str, "RowStore"] = {}
+        self.descriptors = None  # float32 [N, k]: ``with_descriptors``
         fam = pc.if_else(pc.is_null(t.column("family")), "custom", t.column("family"))
         self.family = np.array(fam.to_pylist(), dtype=object)[perm]
 
@@ -334,6 +341,20 @@ class RowStore:
             other._views = {}
             self._views[view] = other
         return self._views[view]
+
+    def with_descriptors(self, names: tuple[str, ...], progress=None) -> "RowStore":
+        """The same rows (and images) with the geometric descriptors ``names`` of each
+        (``rap.model.views.descriptor_columns``: computed from the geometry once, cached)."""
+        if not names:
+            return self
+        import copy
+
+        from rap.model.views import descriptor_columns
+
+        other = copy.copy(self)
+        other.descriptors = descriptor_columns(self, tuple(names), progress)
+        other._views = {}
+        return other
 
     def index(self, sel: Selection) -> np.ndarray:
         mask = np.ones(len(self), dtype=bool)

@@ -265,15 +265,27 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
     import pyarrow.compute as pc
 
     keep = None if not only else pc.field(by).isin(list(only))
-    for rb in iter_batches(root, columns=["assembly", "family", "score", "trials", "image"],
-                           batch_size=batch_size, filter=keep):
+    columns = ["assembly", "family", "score", "trials", "image"]
+    geometry = None
+    if pred.descriptors:  # computed from the dataset's geometry, batch by batch
+        from rap.model.views import DatasetGeometry
+
+        geometry = DatasetGeometry(root)
+        columns += ["geometry_hash", "moving", "fixed", "direction_x", "direction_y"]
+    for rb in iter_batches(root, columns=columns, batch_size=batch_size, filter=keep):
         if not rb.num_rows:
             continue
         g = rb.column(by).to_pylist()
         groups += [x if x is not None else "custom" for x in g]
         scores.append(rb.column("score").to_numpy())
         trials.append(rb.column("trials").to_numpy())
-        probs.append(pred.prob_high(decode_images(rb.column("image"))))
+        d = None
+        if geometry is not None:
+            col = {c: rb.column(c).to_pylist() for c in columns[5:]}
+            d = geometry.descriptors(pred.descriptors, rb.column("assembly").to_pylist(),
+                                     col["geometry_hash"], col["moving"], col["fixed"],
+                                     list(zip(col["direction_x"], col["direction_y"])))
+        probs.append(pred.prob_high(decode_images(rb.column("image")), d))
     if not groups:
         return []
     return group_metrics(np.array(groups, dtype=object), np.concatenate(scores),

@@ -46,13 +46,18 @@ CPU_CHUNK = 64  # images per forward pass on the CPU: 0.55 ms an image at 64, 1.
 
 
 @torch.inference_mode()
-def batch_outputs(model: RobustnessCNN, images: np.ndarray, device: torch.device) -> np.ndarray:
-    """The network's raw outputs (logits) for uint8 images [N, 2, 64, 64]: one forward pass, or
-    on the CPU one per ``CPU_CHUNK`` images."""
+def batch_outputs(model: RobustnessCNN, images: np.ndarray, device: torch.device,
+                  descriptors: np.ndarray | None = None) -> np.ndarray:
+    """The network's raw outputs (logits) for uint8 images [N, 2, 64, 64] (and the operations'
+    descriptors [N, k] when the network takes them): one forward pass, or on the CPU one per
+    ``CPU_CHUNK`` images."""
     x = torch.from_numpy(np.ascontiguousarray(images)).to(device)
+    d = None if descriptors is None else torch.from_numpy(
+        np.ascontiguousarray(descriptors, dtype=np.float32)).to(device)
     if device.type != "cpu" or len(x) <= CPU_CHUNK:
-        return model(x).double().cpu().numpy()
-    return torch.cat([model(x[i:i + CPU_CHUNK]) for i in range(0, len(x), CPU_CHUNK)]).double().numpy()
+        return model(x, d).double().cpu().numpy()
+    return torch.cat([model(x[i:i + CPU_CHUNK], None if d is None else d[i:i + CPU_CHUNK])
+                      for i in range(0, len(x), CPU_CHUNK)]).double().numpy()
 
 
 def batch_prob_high(model: RobustnessCNN, images: np.ndarray, device: torch.device,
@@ -132,36 +137,49 @@ class Predictor:
     def training(self) -> dict:
         return self.checkpoint.training
 
-    def prob_high(self, images: np.ndarray) -> np.ndarray:
-        """P(high) for each image pair: uint8 [N, 2, 64, 64] -> float64 [N] (one batch)."""
-        images = np.asarray(images)
-        if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != self.image_shape:
-            raise ValueError(f"images must be uint8 [N, {', '.join(map(str, self.image_shape))}], "
-                             f"got {images.dtype} {list(images.shape)}")
-        return heads.prob_high_np(self.outputs(images), self.head, self.threshold, self.trials,
-                                  self.temperature)
+    @property
+    def descriptors(self) -> tuple[str, ...]:
+        """The geometric descriptors the network takes beside the images (``rap.model.descriptors``;
+        empty: images only)."""
+        return self.checkpoint.config.descriptors
 
-    def outputs(self, images: np.ndarray) -> np.ndarray:
-        """Raw network outputs for uint8 images [N, 2, 64, 64] (checked)."""
+    def prob_high(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
+        """P(high) for each image pair: uint8 [N, 2, 64, 64] -> float64 [N] (one batch)."""
+        return heads.prob_high_np(self.outputs(images, descriptors), self.head, self.threshold,
+                                  self.trials, self.temperature)
+
+    def outputs(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
+        """Raw network outputs for uint8 images [N, 2, 64, 64] (checked), with the operations'
+        descriptors float [N, k] when the network takes them (required then; the mirror image
+        of an operation has the same descriptors)."""
         images = np.asarray(images)
         if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != self.image_shape:
             raise ValueError(f"images must be uint8 [N, {', '.join(map(str, self.image_shape))}], "
                              f"got {images.dtype} {list(images.shape)}")
+        k = len(self.descriptors)
+        if k:
+            if descriptors is None or np.shape(descriptors) != (len(images), k):
+                raise ValueError(f"this model takes descriptors float [N, {k}] beside the images "
+                                 f"(rap.model.descriptors), got "
+                                 f"{None if descriptors is None else list(np.shape(descriptors))}")
+        else:
+            descriptors = None
         if len(images) == 0:
             return np.zeros((0, 2 if self.head == "class" else 1), dtype=np.float64)
         self.model.eval()
-        out = batch_outputs(self.model, images, self.device)
+        out = batch_outputs(self.model, images, self.device, descriptors)
         if self.mirror:
-            out = (out + batch_outputs(self.model, mirrored(images), self.device)) / 2
+            out = (out + batch_outputs(self.model, mirrored(images), self.device, descriptors)) / 2
         return out
 
-    def expected_score(self, images: np.ndarray) -> np.ndarray:
+    def expected_score(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
         """The expected success rate of each operation (binomial head; the class head can only
         give P(high), returned instead): float64 [N]."""
-        return heads.expected_score_np(self.outputs(images), self.head, self.temperature)
+        return heads.expected_score_np(self.outputs(images, descriptors), self.head,
+                                       self.temperature)
 
-    def is_high(self, images: np.ndarray) -> np.ndarray:
-        return self.prob_high(images) >= 0.5
+    def is_high(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
+        return self.prob_high(images, descriptors) >= 0.5
 
     def trained_on(self, geometry_hash: str) -> bool:
         """Whether an assembly with this geometry hash was in the training data."""

@@ -138,7 +138,9 @@ def predict_selection(model: RobustnessCNN, sel: Selection, device: torch.device
             rows = idx[s:s + batch_size]
             scores.append(store.scores[rows])
             trials.append(store.trials[rows])
-            outs.append(batch_outputs(model, store.images[rows], device))
+            outs.append(batch_outputs(model, store.images[rows], device,
+                                      None if store.descriptors is None
+                                      else store.descriptors[rows]))
     else:
         for images, sc, tr in iter_rows(sel, batch_size=batch_size,
                                         columns=("score", "trials", "image")):
@@ -216,7 +218,8 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
 
     ``on_step`` gets after every batch ``{"epoch", "epochs", "step", "steps", "loss", "accuracy"}``
     (running means over the epoch so far); before training on a view that is not stored, while its
-    channels are rendered, ``{"task": "render VIEW", "epoch": 1, "epochs": 1, "step": rows done,
+    channels are rendered (or descriptors computed: task "descriptors"), ``{"task": "render VIEW",
+    "epoch": 1, "epochs": 1, "step": rows done,
     "steps": rows}``. ``command`` (the command line that asked for this
     training) is stored in the checkpoint's provenance with the corpus version (``corpus_version``).
     """
@@ -264,6 +267,16 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
                 on_step({"task": f"render {model_config.view}", "epoch": 1, "epochs": 1,
                          "step": done, "steps": total})
         store = store.view(model_config.view, rendering)
+    if model_config.descriptors:
+        if store is None:
+            raise InputError("a network with descriptors needs the dataset in memory "
+                             "(raise max_memory_mb)")
+        describing = None
+        if on_step is not None:
+            def describing(done: int, total: int) -> None:
+                on_step({"task": "descriptors", "epoch": 1, "epochs": 1, "step": done,
+                         "steps": total})
+        store = store.with_descriptors(model_config.descriptors, describing)
     t0 = time.perf_counter()
     with _Threads(config.num_threads), \
             torch.random.fork_rng(devices=[device.index or 0] if device.type == "cuda" else []):
@@ -316,7 +329,9 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
             model.train()
             loss_sum, hits, seen = 0.0, 0, 0
             te = time.perf_counter()
-            for step, (images, labels, successes, trials) in enumerate(data.epoch(rng)):
+            for step, batch in enumerate(data.epoch(rng)):
+                images, labels, successes, trials = batch[:4]
+                d = torch.from_numpy(batch[4]).to(device) if len(batch) > 4 else None
                 if config.augment == "hflip":
                     flip = rng.random(len(images)) < 0.5
                     images = np.where(flip[:, None, None, None], images[..., ::-1], images)
@@ -325,7 +340,7 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
                 global_step += 1
                 x = torch.from_numpy(np.ascontiguousarray(images)).to(device)
                 y = torch.from_numpy(labels).to(device)
-                out = model(x)
+                out = model(x, d)
                 loss = heads.loss(out, head, labels=y, successes=torch.from_numpy(successes).to(device),
                                   trials=torch.from_numpy(trials).to(device), class_weights=w)
                 opt.zero_grad(set_to_none=True)

@@ -5,7 +5,8 @@ checkpoint through ``rap.model`` adds pyarrow and pandas. This module reads the 
 (``rap.model.checkpoint``: a ``torch.save`` zip archive of plain values and tensors) with the
 standard library and numpy, and runs the forward pass of ``rap.model.cnn.RobustnessCNN`` in numpy:
 four (4x4 convolution, batch normalisation when ``norm="batch"``, ReLU, 2x2 max-pooling) stages,
-three (linear, ReLU) layers (dropout is the identity at inference), a final linear layer, and the
+three (linear, ReLU) layers (dropout is the identity at inference; a network with geometric
+descriptors takes them batch-normalised beside the flattened features), a final linear layer, and the
 head of ``rap.model.heads`` with the checkpoint's calibration temperature: the softmax probability
 of "high" (``head="class"``) or the binomial tail P(Bin(n, p) >= k) (``head="binomial"``).
 
@@ -46,7 +47,9 @@ _FORMAT = "rap-farm/robustness-cnn"
 _FORMAT_VERSION = 1
 _CONFIG_KEYS = {"in_channels", "image_size", "channels", "kernel_size", "padding", "hidden",
                 "dropout", "n_classes"}
-_OPTIONAL_KEYS = {"norm", "head", "view"}  # absent in older checkpoints: "none", "class", "pair"
+_OPTIONAL_KEYS = {"norm", "head", "view", "descriptors"}  # absent in older checkpoints:
+# "none", "class", "pair", () (images only)
+_DESCRIPTOR_NORM = "descriptor_norm"  # BatchNorm1d of the geometric descriptors, when configured
 _LINEAR = ("head.1", "head.4", "head.7", "head.10")
 _STORAGES = {"FloatStorage": np.float32, "DoubleStorage": np.float64, "HalfStorage": np.float16,
              "LongStorage": np.int64, "IntStorage": np.int32, "ShortStorage": np.int16,
@@ -155,7 +158,16 @@ class FastPredictor:
         self.norm = cfg.get("norm", "none")
         self.head = cfg.get("head", "class")
         self.view = cfg.get("view", "pair")  # which images to render (rap.render.images.VIEWS)
+        self.descriptors = tuple(cfg.get("descriptors", ()))  # rap.model.descriptors names
         sd = blob["state_dict"]
+        self.descriptor_affine = None  # BatchNorm1d in eval mode as (scale, shift)
+        if self.descriptors:
+            scale = (sd[f"{_DESCRIPTOR_NORM}.weight"].astype(np.float32)
+                     / np.sqrt(sd[f"{_DESCRIPTOR_NORM}.running_var"].astype(np.float32)
+                               + np.float32(1e-5)))
+            shift = (sd[f"{_DESCRIPTOR_NORM}.bias"].astype(np.float32)
+                     - sd[f"{_DESCRIPTOR_NORM}.running_mean"].astype(np.float32) * scale)
+            self.descriptor_affine = (scale, shift)
         self.convs = []  # (weight, shift): conv by the weight, then + shift
         for conv, bn in _conv_names(self.norm):
             w = np.ascontiguousarray(sd[f"{conv}.weight"], np.float32)
@@ -181,37 +193,45 @@ class FastPredictor:
         size = int(cfg["image_size"])
         self.image_shape = (int(cfg["in_channels"]), size, size)
 
-    def _logits(self, images: np.ndarray) -> np.ndarray:
+    def _logits(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
         x = images.transpose(0, 2, 3, 1).astype(np.float32) / np.float32(255.0)  # NHWC
         for w, shift in self.convs:
             x = _pool_relu(_conv_nhwc(x, w, self.padding), shift)
         x = x.transpose(0, 3, 1, 2).reshape(len(x), -1)  # torch's Flatten: C, H, W order
+        if self.descriptor_affine is not None:
+            scale, shift = self.descriptor_affine
+            x = np.concatenate([x, descriptors.astype(np.float32) * scale + shift], axis=1)
         for i, (w, b) in enumerate(self.linears):
             x = x @ w + b
             if i < len(self.linears) - 1:
                 np.maximum(x, 0.0, out=x)
         return x
 
-    def outputs(self, images: np.ndarray) -> np.ndarray:
-        """The network's raw outputs (float64 [N, 2] or [N, 1]) for uint8 images (checked)."""
+    def outputs(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
+        """The network's raw outputs (float64 [N, 2] or [N, 1]) for uint8 images (checked), with
+        the operations' descriptors float [N, k] when the network takes them."""
         images = np.asarray(images)
         if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != self.image_shape:
             raise ValueError(f"images must be uint8 [N, {', '.join(map(str, self.image_shape))}], "
                              f"got {images.dtype} {list(images.shape)}")
+        k = len(self.descriptors)
+        if k and (descriptors is None or np.shape(descriptors) != (len(images), k)):
+            raise ValueError(f"this model takes descriptors float [N, {k}] beside the images")
         width = 2 if self.head == "class" else 1
         out = np.zeros((len(images), width), dtype=np.float64)
         for i in range(0, len(images), CHUNK):
-            out[i:i + CHUNK] = self._logits(images[i:i + CHUNK])
+            d = None if not k else np.asarray(descriptors[i:i + CHUNK])
+            out[i:i + CHUNK] = self._logits(images[i:i + CHUNK], d)
             if self.mirror:  # rap.model.predict.mirrored, without importing torch
                 flipped = np.ascontiguousarray(images[i:i + CHUNK, ..., ::-1])
-                out[i:i + CHUNK] += self._logits(flipped)
+                out[i:i + CHUNK] += self._logits(flipped, d)
                 out[i:i + CHUNK] /= 2
         return out
 
-    def prob_high(self, images: np.ndarray) -> np.ndarray:
+    def prob_high(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
         """P(high) for uint8 [N, 2, 64, 64] -> float64 [N], through the checkpoint's head and
         temperature as ``rap.model.heads.prob_high`` computes it (float32 result, like torch's)."""
-        z = self.outputs(images)
+        z = self.outputs(images, descriptors)
         t = self.temperature
         if self.head == "class":
             return _softmax_high(z.astype(np.float32) / np.float32(t))
@@ -219,16 +239,17 @@ class FastPredictor:
         k = _high_count(self.threshold, self.trials)
         return _binomial_tail(p, self.trials, k).astype(np.float32).astype(np.float64)
 
-    def expected_score(self, images: np.ndarray) -> np.ndarray:
+    def expected_score(self, images: np.ndarray, descriptors: np.ndarray | None = None
+                       ) -> np.ndarray:
         """The expected success rate (binomial head; P(high) for the class head), float64 [N]."""
-        z = self.outputs(images)
+        z = self.outputs(images, descriptors)
         if self.head == "class":
             return _softmax_high(z.astype(np.float32) / np.float32(self.temperature))
         zt = z[:, 0].astype(np.float32) / np.float32(self.temperature)
         return (np.float32(1.0) / (np.float32(1.0) + np.exp(-zt))).astype(np.float64)
 
-    def is_high(self, images: np.ndarray) -> np.ndarray:
-        return self.prob_high(images) >= 0.5
+    def is_high(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
+        return self.prob_high(images, descriptors) >= 0.5
 
 
 def _softmax_high(z: np.ndarray) -> np.ndarray:
@@ -282,7 +303,17 @@ def _supported(blob) -> bool:
         t = (blob.get("calibration") or {}).get("temperature", 1.0)
         if not (isinstance(t, (int, float)) and t > 0):
             return False
+        descriptors = cfg.get("descriptors", [])
+        if not isinstance(descriptors, (list, tuple)) or not all(isinstance(d, str)
+                                                                 for d in descriptors):
+            return False
         want = {f"{k}.{p}" for k in _LINEAR for p in ("weight", "bias")}
+        if descriptors:
+            want |= {f"{_DESCRIPTOR_NORM}.{p}" for p in ("weight", "bias", "running_mean",
+                                                         "running_var", "num_batches_tracked")}
+            if any(sd[f"{_DESCRIPTOR_NORM}.{p}"].shape != (len(descriptors),)
+                   for p in ("weight", "bias", "running_mean", "running_var")):
+                return False
         for conv, bn in _conv_names(norm):
             want.add(f"{conv}.weight")
             if bn is None:
@@ -302,7 +333,7 @@ def _supported(blob) -> bool:
             if any(sd[v].shape != (c_out,) for v in vectors):
                 return False
             c_in, side = c_out, (side + 2 * pad - k + 1) // 2
-        width = c_in * side * side
+        width = c_in * side * side + len(descriptors)
         outs = 2 if head == "class" else 1
         for name, h in zip(_LINEAR, [*cfg["hidden"], outs]):
             if sd[f"{name}.weight"].shape != (h, width) or sd[f"{name}.bias"].shape != (h,):

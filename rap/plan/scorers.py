@@ -225,6 +225,7 @@ class PredictorCnn:
         self.render_seconds = 0.0
         self.cores_busy: Callable[[], bool] | None = None
         self._threadpools = None
+        self._contexts: dict = {}  # geometry hash -> DescriptorContext (a few recent assemblies)
 
     @classmethod
     def load(cls, path: str | Path, device: str = "cpu", engine: str = "torch",
@@ -266,39 +267,66 @@ class PredictorCnn:
         return np.stack([np.asarray(self._render(problem.assembly, op, size=IMAGE_SIZE), np.uint8)
                          for op in ops])
 
-    def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+    def descriptors(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray | None:
+        """The geometric descriptors the network takes (``rap.model.descriptors``), float32
+        [N, k], or None when it takes images only. One NDBG per assembly, kept for the few most
+        recent ones."""
+        names = tuple(getattr(self.predictor, "descriptors", ()) or ())
+        if not names:
+            return None
+        from rap.model.descriptors import DESCRIPTORS, DescriptorContext, descriptors_for
+
+        h = problem.assembly.geometry_hash
+        ctx = self._contexts.get(h)
+        if ctx is None:
+            if len(self._contexts) >= 8:
+                self._contexts.pop(next(iter(self._contexts)))
+            ctx = self._contexts[h] = DescriptorContext(problem.assembly)
+        return np.ascontiguousarray(descriptors_for(ctx, ops)[:, [DESCRIPTORS.index(n)
+                                                                  for n in names]])
+
+    def _inputs(self, problem: PlanningProblem, ops: Sequence[Operation]):
         t = time.perf_counter()
         images = self.images(problem, ops)
+        descriptors = self.descriptors(problem, ops)
         self.render_seconds += time.perf_counter() - t
+        return images, descriptors
+
+    def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        images, descriptors = self._inputs(problem, ops)
         with self._lock:
-            return self._forward("prob_high", images)
+            return self._forward("prob_high", images, descriptors)
 
     def expected_score(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The model's expected success rate of each operation (binomial head; P(high) for the
         class head, the best it knows)."""
-        t = time.perf_counter()
-        images = self.images(problem, ops)
-        self.render_seconds += time.perf_counter() - t
+        images, descriptors = self._inputs(problem, ops)
         with self._lock:
-            return self._forward("expected_score", images)
+            return self._forward("expected_score", images, descriptors)
 
-    def _forward(self, what: str, images: np.ndarray) -> np.ndarray:
-        run = getattr(self.predictor, what)
+    def _forward(self, what: str, images: np.ndarray, descriptors: np.ndarray | None = None
+                 ) -> np.ndarray:
+        method = getattr(self.predictor, what)
+
+        def run(lo: int, hi: int):
+            if descriptors is None:
+                return method(images[lo:hi])
+            return method(images[lo:hi], descriptors[lo:hi])
+
         busy = self.cores_busy
         if busy is None or getattr(self.predictor, "engine", None) != "numpy" or not len(images):
-            return np.asarray(run(images), dtype=np.float64)
+            return np.asarray(run(0, len(images)), dtype=np.float64)
         if self._threadpools is None:
             from threadpoolctl import ThreadpoolController
 
             self._threadpools = ThreadpoolController()
         out = []
         for i in range(0, len(images), SHARE_CHUNK):
-            chunk = images[i:i + SHARE_CHUNK]
             if busy():
                 with self._threadpools.limit(limits=1, user_api="blas"):
-                    out.append(np.asarray(run(chunk), dtype=np.float64))
+                    out.append(np.asarray(run(i, i + SHARE_CHUNK), dtype=np.float64))
             else:
-                out.append(np.asarray(run(chunk), dtype=np.float64))
+                out.append(np.asarray(run(i, i + SHARE_CHUNK), dtype=np.float64))
         return np.concatenate(out)
 
 

@@ -57,6 +57,8 @@ def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
     (["train", "{tiny}", "--channels", "8,16"], "--channels '8,16': 4 positive integers"),
     (["evaluate", "{tiny}", "--channels", "a,b,c,d"], "4 positive integers"),
     (["train", "{tiny}", "--hidden", "64,0,8"], "--hidden '64,0,8': 3 positive integers"),
+    (["train", "{tiny}", "--descriptors", "depth,colour"], "--descriptors 'depth,colour': all, none"),
+    (["evaluate", "{tiny}", "--descriptors", ""], "--descriptors '': all, none"),
     (["train", "{tiny}", "--init", "rap/data/default_model.pt", "--recipe", "paper"],
      "its network differs from this recipe's in head, norm"),
 ])
