@@ -46,6 +46,7 @@ def test_cpu_batches_are_chunked_without_changing_outputs(predictor, monkeypatch
     monkeypatch.setattr(predict, "CPU_CHUNK", 4)
     calls = []
     forward = predictor.model.forward
-    monkeypatch.setattr(predictor.model, "forward", lambda x: calls.append(len(x)) or forward(x))
+    monkeypatch.setattr(predictor.model, "forward",
+                        lambda x, d=None: calls.append(len(x)) or forward(x, d))
     np.testing.assert_allclose(predictor.outputs(images), whole, atol=1e-5)
     assert calls == [4, 4, 3]
