@@ -23,6 +23,15 @@ def _images(name: str) -> np.ndarray:
     return PredictorCnn(None).images(problem, ops)
 
 
+def _inputs(name: str, predictor) -> tuple[np.ndarray, np.ndarray | None]:
+    """The whole assembly's candidates as ``predictor`` takes them: images, and descriptors when
+    its network has them (``PredictorCnn.descriptors``)."""
+    problem = PlanningProblem(six(name), SimParams())
+    ops = list(problem.candidates(problem.whole))
+    cnn = PredictorCnn(predictor)
+    return cnn.images(problem, ops), cnn.descriptors(problem, ops)
+
+
 def test_shipped_model_runs_without_torch_and_agrees_with_torch():
     torch_predict = pytest.importorskip("rap.model.predict")
     from rap.commands.plan import default_model_path
@@ -31,11 +40,13 @@ def test_shipped_model_runs_without_torch_and_agrees_with_torch():
     fast = load_fast_predictor(path)
     assert fast is not None, "the shipped checkpoint should run in numpy"
     slow = torch_predict.Predictor.load(path)
-    images = np.concatenate([_images("hexagon"), _images("rectilinear")])
-    np.testing.assert_allclose(fast.prob_high(images), slow.prob_high(images), atol=1e-5)
+    (ia, da), (ib, db) = _inputs("hexagon", fast), _inputs("rectilinear", fast)
+    images = np.concatenate([ia, ib])
+    d = None if da is None else np.concatenate([da, db])
+    np.testing.assert_allclose(fast.prob_high(images, d), slow.prob_high(images, d), atol=1e-5)
     assert fast.threshold == slow.threshold
     assert fast.assemblies == slow.assemblies and fast.image_stats == slow.image_stats
-    assert fast.prob_high(images[:0]).shape == (0,)
+    assert fast.prob_high(images[:0], None if d is None else d[:0]).shape == (0,)
 
 
 def test_mirror_averaging_is_the_mean_of_both_passes_in_torch_and_numpy():
@@ -43,24 +54,25 @@ def test_mirror_averaging_is_the_mean_of_both_passes_in_torch_and_numpy():
     from rap.commands.plan import default_model_path
 
     path = default_model_path()
-    images = _images("hexagon")
-    flipped = np.ascontiguousarray(images[..., ::-1])
     fast, slow = load_fast_predictor(path), torch_predict.Predictor.load(path)
-    plain, mirror = fast.outputs(images), fast.outputs(flipped)
+    images, d = _inputs("hexagon", fast)  # descriptors are mirror-invariant: the same for both
+    flipped = np.ascontiguousarray(images[..., ::-1])
+    plain, mirror = fast.outputs(images, d), fast.outputs(flipped, d)
     assert not np.allclose(plain, mirror)  # the network is not mirror-symmetric by itself
     fast.mirror, slow.mirror = True, True
-    np.testing.assert_allclose(fast.outputs(images), (plain + mirror) / 2, rtol=1e-6, atol=1e-6)
-    np.testing.assert_allclose(fast.outputs(images), fast.outputs(flipped), atol=1e-6)  # symmetric
-    np.testing.assert_allclose(fast.prob_high(images), slow.prob_high(images), atol=1e-5)
+    np.testing.assert_allclose(fast.outputs(images, d), (plain + mirror) / 2, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(fast.outputs(images, d), fast.outputs(flipped, d), atol=1e-6)
+    np.testing.assert_allclose(fast.prob_high(images, d), slow.prob_high(images, d), atol=1e-5)
     cnn = PredictorCnn.load(path, engine="auto", mirror=True)
     assert cnn.predictor.engine == "numpy" and cnn.predictor.mirror
     assert torch_predict.Predictor.load(path, mirror=True).mirror
 
 
-@pytest.mark.parametrize("norm,head,temperature", [("none", "class", 1.0), ("batch", "class", 1.7),
-                                                    ("none", "binomial", 1.0),
-                                                    ("batch", "binomial", 0.8)])
-def test_a_fresh_network_of_the_current_architecture_agrees(tmp_path, norm, head, temperature):
+@pytest.mark.parametrize("norm,head,temperature,descriptors", [
+    ("none", "class", 1.0, False), ("batch", "class", 1.7, False), ("none", "binomial", 1.0, False),
+    ("batch", "binomial", 0.8, False), ("batch", "binomial", 0.8, True)])
+def test_a_fresh_network_of_the_current_architecture_agrees(tmp_path, norm, head, temperature,
+                                                            descriptors):
     """Catches a change of RobustnessCNN or of the heads that the numpy forward pass does not
     follow: every configuration the model layer offers, with a calibration temperature."""
     torch = pytest.importorskip("torch")
@@ -68,13 +80,16 @@ def test_a_fresh_network_of_the_current_architecture_agrees(tmp_path, norm, head
     from rap.model.cnn import ModelConfig, RobustnessCNN
     from rap.model.predict import Predictor
 
+    from rap.model.descriptors import DESCRIPTORS
+
     torch.manual_seed(3)
-    model = RobustnessCNN(ModelConfig(norm=norm, head=head))
+    names = DESCRIPTORS if descriptors else ()
+    model = RobustnessCNN(ModelConfig(norm=norm, head=head, descriptors=names))
     with torch.no_grad():  # larger weights than the init, and batch statistics of some training
         for p in model.parameters():
             p.mul_(1.6)
         for m in model.modules():
-            if isinstance(m, torch.nn.BatchNorm2d):
+            if isinstance(m, (torch.nn.BatchNorm1d, torch.nn.BatchNorm2d)):
                 m.running_mean.uniform_(-0.5, 0.5)
                 m.running_var.uniform_(0.5, 2.0)
         if head == "binomial":  # per-trial success rates around 0.9: P(high) away from 0 and 1
@@ -88,13 +103,16 @@ def test_a_fresh_network_of_the_current_architecture_agrees(tmp_path, norm, head
     rng = np.random.default_rng(0)
     images = (rng.random((20, 2, 64, 64)) < 0.4).astype(np.uint8) * rng.integers(
         0, 256, (20, 2, 64, 64), dtype=np.uint8)
+    d = rng.normal(size=(20, len(names))).astype(np.float32) if names else None
     slow = Predictor.load(path)
-    z_fast, z_torch = fast.outputs(images), slow.outputs(images)
+    assert fast.descriptors == slow.descriptors == names
+    z_fast, z_torch = fast.outputs(images, d), slow.outputs(images, d)
     np.testing.assert_allclose(z_fast, z_torch, rtol=0, atol=1e-5 * np.abs(z_torch).max())
-    p_fast, p_torch = fast.prob_high(images), slow.prob_high(images)
+    p_fast, p_torch = fast.prob_high(images, d), slow.prob_high(images, d)
     assert p_torch.std() > 1e-3
     np.testing.assert_allclose(p_fast, p_torch, atol=1e-5)
-    np.testing.assert_allclose(fast.expected_score(images), slow.expected_score(images), atol=1e-5)
+    np.testing.assert_allclose(fast.expected_score(images, d), slow.expected_score(images, d),
+                               atol=1e-5)
 
 
 def test_anything_but_the_known_architecture_is_left_to_torch(tmp_path):
