@@ -217,10 +217,9 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
     once the checkpoint is saved.
 
     ``on_step`` gets after every batch ``{"epoch", "epochs", "step", "steps", "loss", "accuracy"}``
-    (running means over the epoch so far); before training on a view that is not stored, while its
-    channels are rendered (or descriptors computed: task "descriptors"), ``{"task": "render VIEW",
-    "epoch": 1, "epochs": 1, "step": rows done,
-    "steps": rows}``. ``command`` (the command line that asked for this
+    (running means over the epoch so far); before training, while the channels of a view that is
+    not stored are rendered or the descriptors computed, ``{"task": "render VIEW" or "descriptors",
+    "epoch": 1, "epochs": 1, "step": rows done, "steps": rows}``. ``command`` (the command line that asked for this
     training) is stored in the checkpoint's provenance with the corpus version (``corpus_version``).
     """
     root = str(Path(root).resolve())

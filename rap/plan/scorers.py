@@ -226,6 +226,7 @@ class PredictorCnn:
         self.cores_busy: Callable[[], bool] | None = None
         self._threadpools = None
         self._contexts: dict = {}  # geometry hash -> DescriptorContext (a few recent assemblies)
+        self._contexts_lock = threading.Lock()
 
     @classmethod
     def load(cls, path: str | Path, device: str = "cpu", engine: str = "torch",
@@ -277,11 +278,12 @@ class PredictorCnn:
         from rap.model.descriptors import DESCRIPTORS, DescriptorContext, descriptors_for
 
         h = problem.assembly.geometry_hash
-        ctx = self._contexts.get(h)
-        if ctx is None:
-            if len(self._contexts) >= 8:
-                self._contexts.pop(next(iter(self._contexts)))
-            ctx = self._contexts[h] = DescriptorContext(problem.assembly)
+        with self._contexts_lock:  # its caches only grow: concurrent planners may share one
+            ctx = self._contexts.get(h)
+            if ctx is None:
+                if len(self._contexts) >= 8:
+                    self._contexts.pop(next(iter(self._contexts)))
+                ctx = self._contexts[h] = DescriptorContext(problem.assembly)
         return np.ascontiguousarray(descriptors_for(ctx, ops)[:, [DESCRIPTORS.index(n)
                                                                   for n in names]])
 
