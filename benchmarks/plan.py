@@ -12,6 +12,10 @@ evaluation of the returned sequence and printing are all included:
   with ``--workers 1``.
 
     python benchmarks/plan.py [--assembly assemblies/hexagon.json] [--repeats 3] [--method rap]
+        [--model CKPT ...] [--no-sim]
+
+With several ``--model`` checkpoints the cold and warm runs of each alternate, run by run, so that
+they are compared under the same load; ``--no-sim`` skips the simulator-only configurations.
 
 Also prints the machine's CPU count and load average: the figures depend on what else runs.
 """
@@ -46,10 +50,14 @@ def main() -> None:
     ap.add_argument("--assembly", default=str(ROOT / "assemblies" / "hexagon.json"))
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--method", default="rap")
+    ap.add_argument("--model", action="append", default=None,
+                    help="a checkpoint to plan with (repeatable; default: the shipped model)")
+    ap.add_argument("--no-sim", action="store_true", help="skip the simulator-only runs")
     a = ap.parse_args()
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     env.pop("RAY_ADDRESS", None)
-    base = [a.assembly, "--method", a.method]
+    models = a.model or [None]
+    bases = {m: [a.assembly, "--method", a.method] + (["--model", m] if m else []) for m in models}
     print(f"rap-farm plan {Path(a.assembly).name} --method {a.method}: {os.cpu_count()} CPUs, "
           f"load average {os.getloadavg()[0]:.2f} at start")
     with tempfile.TemporaryDirectory() as tmp:
@@ -59,10 +67,29 @@ def main() -> None:
             return [run(extra + ["--cache", str(Path(tmp) / f"c{next(n)}.json")], env)
                     for _ in range(a.repeats)]
 
-        report("cold", cold(base))
-        warm = str(Path(tmp) / "warm.json")
-        run(base + ["--cache", warm], env)
-        report("warm", [run(base + ["--cache", warm], env) for _ in range(a.repeats)])
+        def label(what, m):
+            return what if len(models) == 1 else f"{what} {Path(m).stem if m else 'shipped'}"
+
+        colds = {m: [] for m in models}
+        for _ in range(a.repeats):  # alternate the models run by run
+            for m in models:
+                colds[m].append(run(bases[m] + ["--cache", str(Path(tmp) / f"c{next(n)}.json")],
+                                    env))
+        for m in models:
+            report(label("cold", m), colds[m])
+        warms = {m: [] for m in models}
+        for m in models:
+            run(bases[m] + ["--cache", str(Path(tmp) / f"warm{models.index(m)}.json")], env)
+        for _ in range(a.repeats):
+            for m in models:
+                warms[m].append(run(bases[m] + ["--cache",
+                                                str(Path(tmp) / f"warm{models.index(m)}.json")],
+                                    env))
+        for m in models:
+            report(label("warm", m), warms[m])
+        if a.no_sim:
+            print(f"load average {os.getloadavg()[0]:.2f} at the end")
+            return
         sim = [a.assembly, "--method", "sim"]
         report("sim, cold", cold(sim))
         report("sim, cold, 1 process", cold(sim + ["--workers", "1"]))
