@@ -266,12 +266,13 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
 
     keep = None if not only else pc.field(by).isin(list(only))
     columns = ["assembly", "family", "score", "trials", "image"]
-    geometry = None
+    geometry, operation_columns = None, ["geometry_hash", "moving", "fixed", "direction_x",
+                                         "direction_y"]
     if pred.descriptors:  # computed from the dataset's geometry, batch by batch
         from rap.model.views import DatasetGeometry
 
         geometry = DatasetGeometry(root)
-        columns += ["geometry_hash", "moving", "fixed", "direction_x", "direction_y"]
+        columns += operation_columns
     for rb in iter_batches(root, columns=columns, batch_size=batch_size, filter=keep):
         if not rb.num_rows:
             continue
@@ -281,7 +282,7 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
         trials.append(rb.column("trials").to_numpy())
         d = None
         if geometry is not None:
-            col = {c: rb.column(c).to_pylist() for c in columns[5:]}
+            col = {c: rb.column(c).to_pylist() for c in operation_columns}
             d = geometry.descriptors(pred.descriptors, rb.column("assembly").to_pylist(),
                                      col["geometry_hash"], col["moving"], col["fixed"],
                                      list(zip(col["direction_x"], col["direction_y"])))
