@@ -53,7 +53,7 @@ from rap.geometry.ndbg import NDBG, build_ndbg, cell_index
 from rap.operation import Operation
 
 __all__ = ["DESCRIPTORS", "VERSION", "DescriptorContext", "operation_descriptors",
-           "descriptors_for"]
+           "descriptors_for", "columns"]
 
 VERSION = 1  # of the definitions below: caches of computed descriptors are keyed by it
 
@@ -210,6 +210,11 @@ class DescriptorContext:
                          len(op.moving), len(op.fixed), math.log(am / (am + af)),
                          sliding / perimeter, facing / perimeter, depth, lateral / width_across,
                          math.log(width_across / length_along)], dtype=np.float32)
+
+
+def columns(names: Sequence[str]) -> list[int]:
+    """Indices of the descriptors ``names`` in ``DESCRIPTORS`` (a network's subset, in its order)."""
+    return [DESCRIPTORS.index(n) for n in names]
 
 
 def _vertices(geom) -> np.ndarray:

@@ -123,10 +123,10 @@ class DatasetGeometry:
     def descriptors(self, names: tuple[str, ...], assembly, geometry_hash, moving, fixed,
                     direction) -> np.ndarray:
         """float32 [N, len(names)] for rows given as parallel sequences (direction [N, 2])."""
-        from rap.model.descriptors import DESCRIPTORS, DescriptorContext
+        from rap.model.descriptors import DescriptorContext, columns
         from rap.operation import Operation
 
-        cols = [DESCRIPTORS.index(n) for n in names]
+        cols = columns(names)
         out = np.empty((len(assembly), len(names)), dtype=np.float32)
         for i in range(len(assembly)):
             name = assembly[i]
@@ -150,7 +150,7 @@ def descriptor_columns(store, names: tuple[str, ...],
     """float32 [N, len(names)]: the descriptors ``names`` of every row of a ``RowStore``, made
     once and cached by the rows' keys (``progress(done, total)`` every ``PROGRESS_ROWS`` rows
     computed). Raises ``InputError`` as ``extra_channels`` does."""
-    from rap.model.descriptors import DESCRIPTORS, VERSION
+    from rap.model.descriptors import DESCRIPTORS, VERSION, columns
 
     def compute() -> np.ndarray:
         geometry = DatasetGeometry(store.root)
@@ -166,4 +166,4 @@ def descriptor_columns(store, names: tuple[str, ...],
 
     arr = _cached(f"descriptors-v{VERSION}:{','.join(DESCRIPTORS)}", store,
                   (len(store), len(DESCRIPTORS)), compute)
-    return np.ascontiguousarray(arr[:, [DESCRIPTORS.index(n) for n in names]])
+    return np.ascontiguousarray(arr[:, columns(names)])

@@ -275,7 +275,7 @@ class PredictorCnn:
         names = tuple(getattr(self.predictor, "descriptors", ()) or ())
         if not names:
             return None
-        from rap.model.descriptors import DESCRIPTORS, DescriptorContext, descriptors_for
+        from rap.model.descriptors import DescriptorContext, columns, descriptors_for
 
         h = problem.assembly.geometry_hash
         with self._contexts_lock:  # its caches only grow: concurrent planners may share one
@@ -284,8 +284,7 @@ class PredictorCnn:
                 if len(self._contexts) >= 8:
                     self._contexts.pop(next(iter(self._contexts)))
                 ctx = self._contexts[h] = DescriptorContext(problem.assembly)
-        return np.ascontiguousarray(descriptors_for(ctx, ops)[:, [DESCRIPTORS.index(n)
-                                                                  for n in names]])
+        return np.ascontiguousarray(descriptors_for(ctx, ops)[:, columns(names)])
 
     def _inputs(self, problem: PlanningProblem, ops: Sequence[Operation]):
         t = time.perf_counter()
