@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from fractions import Fraction
-from typing import Iterable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -85,16 +85,9 @@ class DescriptorContext:
     def __init__(self, assembly: Assembly, ndbg: NDBG | None = None):
         self.assembly = assembly
         self.ndbg = ndbg if ndbg is not None else build_ndbg(assembly)
-        self._pos = {p: i for i, p in enumerate(self.ndbg.ids)}
         self._polygons: dict[str, object] = {}
         self._unions: dict[frozenset, tuple] = {}
         self._shapes: dict[tuple[frozenset, frozenset], tuple] = {}
-
-    def _mask(self, ids: Iterable[str]) -> int:
-        m = 0
-        for p in ids:
-            m |= 1 << self._pos[p]
-        return m
 
     def _feasible(self, k: int, moving: int, fixed: int) -> bool:
         outs = self.ndbg.cells[k].outs
@@ -113,7 +106,7 @@ class DescriptorContext:
         whole circle. ``from_float``: ``removal`` is a float unit vector taken exactly, which may
         stand for a critical direction beside it (within ``_VERTEX_RAD``). Raises ``ValueError``
         when the operation is not feasible there."""
-        mv, fx = self._mask(moving), self._mask(fixed)
+        mv, fx = self.ndbg.mask(moving), self.ndbg.mask(fixed)
         cells = self.ndbg.cells
         n = len(cells)
         k0 = cell_index(self.ndbg, removal)
