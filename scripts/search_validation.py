@@ -12,7 +12,8 @@ the plan's robustness is compared with the optimum's (the DP over the simulator'
 
 ``validation``: 3 seeds of each of the 9 generated families that have a leave-one-family-out model,
 none of them an experiment (test) assembly; ``test``: the 14 assemblies of `rap-farm experiment`
-in docs/RESULTS.md; ``unseen``: the 12 assemblies of `scripts/make_unseen.py` with an optimum in
+in docs/RESULTS.md; ``fresh``: one fresh seed of each of the ten families (``fresh_assemblies``),
+a validation set for the shipped model; ``unseen``: the 12 assemblies of `scripts/make_unseen.py` with an optimum in
 docs/RESULTS.md (fan-s100 has 11,253 operations), with the shipped model (labels from
 datasets/unseen). The tables are cached in ``--cache`` (default reports/search-validation/);
 building them simulates a few thousand operations (about 15 minutes on 2 cores).
@@ -38,12 +39,49 @@ VALIDATION = ["c-shapes-s10", "c-shapes-s17", "c-shapes-s19", "convex-s11", "con
               "funnels-s12", "hub-s0", "hub-s12", "hub-s2", "knobs-s10", "knobs-s16", "knobs-s17",
               "packing-s11", "packing-s12", "packing-s19", "pegs-s1", "pegs-s15", "pegs-s22",
               "polyomino-s11", "polyomino-s14", "polyomino-s26"]
+FRESH_FROM, FRESH_PARTS, FRESH_OPERATIONS = 200, (7, 10), 2000  # the fresh set (fresh_assemblies)
 UNSEEN = ["basketweave", "c-shapes-s100", "convex-s102", "funnels-s103", "hub-s101", "knobs-s101",
           "packing-s100", "pegs-s103", "pentomino-6x10", "polyomino-s100", "tangram", "wall-s101"]
 
 
+def fresh_assemblies() -> dict:
+    """The ``fresh`` set: per generated family the first seed from 200 on (the corpus holds 0-35,
+    the unseen set 100-103) whose assembly has 7 to 10 parts and at most 2,000 operations in its
+    AND/OR graph; a validation set for the shipped
+    model, disjoint from the unseen test set. Written to ``reports/fresh-assemblies/``."""
+    import json
+
+    from rap.assembly import assembly_to_json
+    from rap.geometry.families import FAMILIES, generate
+
+    out = ROOT / "reports" / "fresh-assemblies"
+    out.mkdir(parents=True, exist_ok=True)
+    from rap.plan.problem import PlanningProblem
+    from rap.plan.search import _graph, _TooLarge
+    from rap.sim.params import SimParams
+
+    def small(a) -> bool:  # at most FRESH_OPERATIONS operations: tables in minutes
+        try:
+            _graph(PlanningProblem(a, SimParams(), SEED), FRESH_OPERATIONS)
+        except _TooLarge:
+            return False
+        return True
+
+    found = {}
+    for family in FAMILIES:
+        seed = FRESH_FROM
+        while not (FRESH_PARTS[0] <= len(a := generate(family, seed)) <= FRESH_PARTS[1]
+                   and small(a)):
+            seed += 1
+        path = out / f"{a.name}.json"
+        if not path.exists():
+            path.write_text(json.dumps(assembly_to_json(a), separators=(",", ":")) + "\n")
+        found[a.name] = path
+    return found
+
+
 def model_of(name: str) -> Path:
-    if name in UNSEEN:
+    if name in UNSEEN or (ROOT / "reports" / "fresh-assemblies" / f"{name}.json").exists():
         return ROOT / "rap" / "data" / "default_model.pt"
     family = name.rsplit("-s", 1)[0] if "-s" in name and name[-1].isdigit() else None
     stem = f"holdout-family-{family}" if family else f"holdout-{name}"
@@ -53,6 +91,9 @@ def model_of(name: str) -> Path:
 def assembly_path(name: str) -> Path:
     if name in UNSEEN:
         return ROOT / "assemblies" / "unseen" / f"{name}.json"
+    fresh = ROOT / "reports" / "fresh-assemblies" / f"{name}.json"
+    if fresh.exists():
+        return fresh
     p = ROOT / "assemblies" / f"{name}.json"
     return p if p.exists() else ROOT / "datasets" / "corpus" / "_assemblies" / f"{name}.json"
 
@@ -65,9 +106,10 @@ def problem_of(name: str):
     return PlanningProblem(load_assembly(assembly_path(name)), SimParams(), SEED)
 
 
-def predictions(name: str, mirror: bool = False, model: Path | None = None) -> dict:
-    """key -> the hold-out model's (or ``model``'s) expected score, for every operation of the
-    graph."""
+def predictions(name: str, mirror: bool = False, model: Path | None = None,
+                what: str = "expected_score") -> dict:
+    """key -> the hold-out model's (or ``model``'s) expected score (``what="prob_high"``: its
+    P(high), what RAP acts on), for every operation of the graph."""
     from rap.plan.scorers import PredictorCnn
     from rap.plan.search import _graph
 
@@ -75,7 +117,7 @@ def predictions(name: str, mirror: bool = False, model: Path | None = None) -> d
     ops = [op for c in _graph(problem, 10**9).values() for op in c]
     cnn = PredictorCnn.load(model or model_of(name), engine="auto", mirror=mirror)
     return dict(zip([problem.key(op) for op in ops],
-                    map(float, cnn.expected_score(problem, ops))))
+                    map(float, getattr(cnn, what)(problem, ops))))
 
 
 def tables(name: str, dataset) -> dict:
@@ -88,8 +130,10 @@ def tables(name: str, dataset) -> dict:
     problem = problem_of(name)
     ops = [op for c in _graph(problem, 10**9).values() for op in c]
     keys = [problem.key(op) for op in ops]
-    t = dataset.to_table(columns=["key", "score"], filter=ds.field("assembly") == name)
-    truth = {k: v for k, v in zip(t["key"].to_pylist(), t["score"].to_pylist())}
+    truth = {}
+    if dataset is not None:  # labels already simulated with the same seeds: the same numbers
+        t = dataset.to_table(columns=["key", "score"], filter=ds.field("assembly") == name)
+        truth = {k: v for k, v in zip(t["key"].to_pylist(), t["score"].to_pylist())}
     todo = [op for op, k in zip(ops, keys) if k not in truth]
     sim = LocalSimulator(processes=2, min_batch=1)
     try:
@@ -98,7 +142,8 @@ def tables(name: str, dataset) -> dict:
     finally:
         sim.close()
     print(f"  {name}: {len(ops)} operations, {len(todo)} simulated", flush=True)
-    return {"pred": predictions(name), "truth": {k: truth[k] for k in keys}}
+    return {"pred": predictions(name), "phigh": predictions(name, what="prob_high"),
+            "truth": {k: truth[k] for k in keys}}
 
 
 class _LookupSim:
@@ -170,7 +215,7 @@ def prediction_metrics(name: str, tab: dict) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--set", choices=("validation", "test", "unseen"), default="validation")
+    ap.add_argument("--set", choices=("validation", "test", "unseen", "fresh"), default="validation")
     ap.add_argument("--trust", default="0.93,0.95,0.96,0.97,0.98,none")
     ap.add_argument("--simulations", type=int, default=1000, help="budget per plan")
     ap.add_argument("--optimism", default="0", help="comma-separated optimism values to try")
@@ -183,11 +228,12 @@ def main() -> None:
                     help="also the predictions' agreement with the simulator on the whole graphs")
     ap.add_argument("--cache", type=Path, default=ROOT / "reports" / "search-validation")
     a = ap.parse_args()
-    if a.model is not None and a.set != "unseen":
-        ap.error("--model needs --set unseen (the other sets' models are hold-out models)")
+    if a.model is not None and a.set not in ("unseen", "fresh"):
+        ap.error("--model needs --set unseen or fresh (the other sets' models are hold-out models)")
     if a.model is not None and a.mirror:
         ap.error("--model and --mirror: one at a time")
-    names = {"validation": VALIDATION, "test": TEST, "unseen": UNSEEN}[a.set]
+    names = (list(fresh_assemblies()) if a.set == "fresh"
+             else {"validation": VALIDATION, "test": TEST, "unseen": UNSEEN}[a.set])
     a.cache.mkdir(parents=True, exist_ok=True)
     path = a.cache / f"{a.set}.pkl"
     tabs = pickle.loads(path.read_bytes()) if path.exists() else {}
@@ -195,9 +241,9 @@ def main() -> None:
     if missing:
         import pyarrow.dataset as ds
 
-        labels = ROOT / "datasets" / ("unseen" if a.set == "unseen" else "corpus")
-        dataset = ds.dataset(str(labels), format="parquet",
-                             exclude_invalid_files=True)
+        labels = ROOT / "datasets" / {"unseen": "unseen", "fresh": "fresh"}.get(a.set, "corpus")
+        dataset = (ds.dataset(str(labels), format="parquet", exclude_invalid_files=True)
+                   if labels.is_dir() else None)  # None: every operation simulated here
         print(f"building score tables for {len(missing)} assemblies ...", flush=True)
         for n in missing:
             tabs[n] = tables(n, dataset)

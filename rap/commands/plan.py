@@ -176,11 +176,17 @@ def plan_command(
     no_cache: bool = typer.Option(False, "--no-cache", help="Neither read nor write a cache file."),
     samples: int = typer.Option(50, "--samples", min=1, help="Random sequences (method random)."),
     fallback_k: int = typer.Option(None, "--fallback-k", min=1, help="Method rap: when no "
-                                   "candidate is predicted high, simulate only the K most likely "
-                                   "[default: every candidate, the paper's rule]."),
+                                   "candidate is predicted high, simulate at most the K most "
+                                   "likely [default: every candidate, until one is good enough]."),
     high_probability: float = typer.Option(None, "--high-probability", help="Method rap: a "
-                                           "candidate counts as predicted high at P(high) >= this "
-                                           "[default: 0.5, the paper's class decision]."),
+                                           "candidate is taken without simulation at P(high) >= "
+                                           "this [default: 0.9; the paper: 0.5]."),
+    fallback_optimism: float = typer.Option(None, "--fallback-optimism", min=0.0, max=1.0,
+                                            help="Method rap: the fallback simulates candidates "
+                                            "best first until the best simulated score exceeds "
+                                            "the next one's p + U (1 - p), p its expected score "
+                                            "(1: all at once, the paper's rule with "
+                                            "--high-probability 0.5) [default: 0.4]."),
     beam_width: int = typer.Option(None, "--beam-width", min=1, help="Method search: beam width "
                                    "beyond the exact search's budget [default: 8]."),
     simulations: int = typer.Option(None, "--simulations", min=0, help="Method search: "
@@ -231,7 +237,8 @@ def plan_command(
             raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
                              f"its own settings: model, trials, cache, workers)")
         server_options = {  # the method's options travel with the request
-            "rap": {"fallback_k": fallback_k, "high_probability": high_probability},
+            "rap": {"fallback_k": fallback_k, "high_probability": high_probability,
+                    "fallback_optimism": fallback_optimism},
             "search": {"beam_width": beam_width, "simulations": simulations, "trust": trust,
                        "optimism": optimism}}.get(method, {})
     asm = load_assembly(assembly)
@@ -266,7 +273,8 @@ def plan_command(
                                 cache_path, _local_workers(workers), err,
                                 dict(fallback_k=fallback_k, beam_width=beam_width,
                                      simulations=simulations, trust=trust,
-                                     high_probability=high_probability, optimism=optimism))
+                                     high_probability=high_probability, optimism=optimism,
+                                     fallback_optimism=fallback_optimism))
         else:
             import rap.farm.service as service
 
@@ -279,7 +287,8 @@ def plan_command(
                                                            simulations=simulations,
                                                            trust=trust,
                                                            high_probability=high_probability,
-                                                           optimism=optimism))
+                                                           optimism=optimism,
+                                                           fallback_optimism=fallback_optimism))
             with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
                 result = service.run_plan(req, model_path=model_path, address=address,
                                           workers=workers,

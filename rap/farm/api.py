@@ -11,7 +11,7 @@ must not start: a non-loopback host without a bearer token, a short token, a bad
 planner options)`` or raises ``BadRequest(status, one line)``; the options (``PLANNER_OPTIONS``)
 are those of ``rap-farm plan`` for the method asked for (search: ``simulations``, at most
 ``max_simulations``, ``trust``, ``optimism``, ``beam_width``; rap: ``fallback_k``,
-``high_probability``); numbers are parsed as decimals, exactly as
+``high_probability``, ``fallback_optimism``); numbers are parsed as decimals, exactly as
 ``rap.io.load_assembly`` reads a file, and an invalid assembly gets the CLI's
 ``AssemblyError`` text with ``assembly`` as its source. ``rap.farm.serve`` serves them over HTTP.
 """
@@ -41,6 +41,7 @@ PLANNER_OPTIONS = {
     "beam_width": (("search",), int, 1, None, True),
     "fallback_k": (("rap",), int, 1, None, True),
     "high_probability": (("rap",), float, 0.0, 1.0, False),
+    "fallback_optimism": (("rap",), float, 0.0, 1.0, True),
 }
 DETAILS_HEADER = "X-Plan-Details"  # {"eval_seconds", "stats"} of an answered plan (rap.client)
 

@@ -110,7 +110,7 @@ _PLAN_BODY_SCHEMA = {
                 "options": {"type": "object", "additionalProperties": False,
                             "description": "The method's options, as `rap-farm plan`'s "
                             "(search: simulations, trust, optimism, beam_width; rap: "
-                            "fallback_k, high_probability), e.g. {\"simulations\": 200, "
+                            "fallback_k, high_probability, fallback_optimism), e.g. {\"simulations\": 200, "
                             "\"optimism\": 0.1}",
                             "properties": {k: {"type": "integer" if kind is int else "number"}
                                            for k, (_, kind, *_rest) in PLANNER_OPTIONS.items()}}}}}},

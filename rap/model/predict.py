@@ -178,6 +178,13 @@ class Predictor:
         return heads.expected_score_np(self.outputs(images, descriptors), self.head,
                                        self.temperature)
 
+    def prob_high_and_expected(self, images: np.ndarray, descriptors: np.ndarray | None = None
+                               ) -> tuple[np.ndarray, np.ndarray]:
+        """``(prob_high, expected_score)`` from one forward pass (what RAP ranks by)."""
+        out = self.outputs(images, descriptors)
+        return (heads.prob_high_np(out, self.head, self.threshold, self.trials, self.temperature),
+                heads.expected_score_np(out, self.head, self.temperature))
+
     def is_high(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
         return self.prob_high(images, descriptors) >= 0.5
 

@@ -29,7 +29,7 @@ from typing import Callable, Sequence
 
 from rap.errors import InputError
 from rap.plan.cache import ScoreCache
-from rap.plan.methods import make_planner
+from rap.plan.methods import PAPER_RAP, make_planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStatus
 from rap.plan.scorers import PredictorCnn, Scorer, SimBackend
@@ -41,9 +41,12 @@ EXPERIMENT_METHODS = ("random", "rap", "sim", "optimal")
 
 
 def method_planner(method: str, samples: int = 50):
-    """The planner of a method name: one of ``EXPERIMENT_METHODS``, ``rap`` with options ``-kK``
-    (its fallback simulates the K candidates with the highest P(high)) and ``-pP`` (a candidate
-    is confidently high at P(high) >= P percent; default 50), or ``search`` with options
+    """The planner of a method name: one of ``EXPERIMENT_METHODS``, ``rap`` (its defaults,
+    ``rap.plan.methods``) with options ``-kK`` (its fallback simulates at most the K candidates
+    with the highest P(high)), ``-pP`` (a candidate is confidently high at P(high) >= P percent;
+    default 90) and ``-oU`` (the fallback simulates best first, until the best simulated score
+    exceeds the next candidate's expected score raised by U percent of its failure rate; default
+    40; 100: all at once), ``rap-paper`` (the paper's rule, ``rap-p50-o100``), or ``search`` with options
     ``-wW`` (beam width W, used beyond the exact search's budget; ``-w`` alone with ``-b``:
     always the beam), ``-sN`` (N simulations while planning), ``-tP`` (operations predicted at
     P percent or more are trusted, not simulated), ``-oP`` (optimism P percent): e.g.
@@ -67,23 +70,29 @@ def method_planner(method: str, samples: int = 50):
         return SearchPlanner(beam_width=opts["w"], simulations=opts["s"], max_operations=opts["b"],
                              trust=None if opts["t"] is None else opts["t"] / 100,
                              optimism=opts["o"] / 100)
+    if method == "rap-paper":  # the paper's rule: P(high) >= 0.5, every candidate simulated
+        return make_planner("rap", **PAPER_RAP)
     if method.startswith("rap-"):
-        opts = {"k": None, "p": None}
+        opts = {"k": None, "p": None, "o": None}
         for part in method.split("-")[1:]:
             key, val = part[:1], part[1:]
             if key not in opts or not val.isdigit() or opts[key] is not None:
-                raise InputError(f"method {method!r}: RAP options are -kK (an integer K) and -pP "
-                                 f"(a percentage P), as in rap-kK, rap-pP, rap-kK-pP")
+                raise InputError(f"method {method!r}: RAP options are -kK (an integer K), -pP "
+                                 f"(a percentage P) and -oU (best-first fallback, optimism U "
+                                 f"percent), as in rap-kK, rap-pP, rap-o10, rap-kK-pP")
             opts[key] = int(val)
         if opts["k"] is not None and opts["k"] < 1:
             raise InputError(f"method {method!r}: K must be >= 1")
         if opts["p"] is not None and not 0 < opts["p"] <= 100:
             raise InputError(f"method {method!r}: P must lie in 1..100")
+        if opts["o"] is not None and opts["o"] > 100:
+            raise InputError(f"method {method!r}: the optimism U must lie in 0..100")
         return make_planner("rap", fallback_k=opts["k"],
-                            high_probability=None if opts["p"] is None else opts["p"] / 100)
+                            high_probability=None if opts["p"] is None else opts["p"] / 100,
+                            fallback_optimism=None if opts["o"] is None else opts["o"] / 100)
     if method not in EXPERIMENT_METHODS:
-        raise InputError(f"unknown method {method!r}: {', '.join(EXPERIMENT_METHODS)}, rap-kK-pP "
-                         f"or search-...")
+        raise InputError(f"unknown method {method!r}: {', '.join(EXPERIMENT_METHODS)}, "
+                         f"rap-paper, rap-kK-pP-oU or search-...")
     return make_planner(method, samples=samples)
 
 

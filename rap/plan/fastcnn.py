@@ -231,7 +231,20 @@ class FastPredictor:
     def prob_high(self, images: np.ndarray, descriptors: np.ndarray | None = None) -> np.ndarray:
         """P(high) for uint8 [N, 2, 64, 64] -> float64 [N], through the checkpoint's head and
         temperature as ``rap.model.heads.prob_high`` computes it (float32 result, like torch's)."""
+        return self._prob_high(self.outputs(images, descriptors))
+
+    def expected_score(self, images: np.ndarray, descriptors: np.ndarray | None = None
+                       ) -> np.ndarray:
+        """The expected success rate (binomial head; P(high) for the class head), float64 [N]."""
+        return self._expected(self.outputs(images, descriptors))
+
+    def prob_high_and_expected(self, images: np.ndarray, descriptors: np.ndarray | None = None
+                               ) -> tuple[np.ndarray, np.ndarray]:
+        """``(prob_high, expected_score)`` from one forward pass (what RAP ranks by)."""
         z = self.outputs(images, descriptors)
+        return self._prob_high(z), self._expected(z)
+
+    def _prob_high(self, z: np.ndarray) -> np.ndarray:
         t = self.temperature
         if self.head == "class":
             return _softmax_high(z.astype(np.float32) / np.float32(t))
@@ -239,10 +252,7 @@ class FastPredictor:
         k = _high_count(self.threshold, self.trials)
         return _binomial_tail(p, self.trials, k).astype(np.float32).astype(np.float64)
 
-    def expected_score(self, images: np.ndarray, descriptors: np.ndarray | None = None
-                       ) -> np.ndarray:
-        """The expected success rate (binomial head; P(high) for the class head), float64 [N]."""
-        z = self.outputs(images, descriptors)
+    def _expected(self, z: np.ndarray) -> np.ndarray:
         if self.head == "class":
             return _softmax_high(z.astype(np.float32) / np.float32(self.temperature))
         zt = z[:, 0].astype(np.float32) / np.float32(self.temperature)

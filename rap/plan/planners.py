@@ -9,7 +9,9 @@ assembly order (children before parents: the disassembly sequence reversed).
 * ``RapPlanner`` (the paper's Algorithm 1 with the CNN scorer): the CNN scores every candidate of
   ``S`` in one batch; among those predicted *high* (P(high) >= 0.5) the most confident is taken;
   when none is, the candidates are simulated and the best taken (a *fallback*): all of them (the
-  paper's rule, ``fallback_k=None``) or only the ``fallback_k`` with the highest P(high).
+  paper's rule, ``fallback_k=None``), only the ``fallback_k`` with the highest P(high), or best
+  first until no unsimulated candidate is expected to beat the best simulated one
+  (``fallback_optimism`` < 1).
 * ``SimPlanner``: every candidate is simulated; the best is taken.
 * ``OptimalPlanner``: the most robust sequence over the same operation space, maximising the product
   of simulated scores by dynamic programming over subassemblies:
@@ -48,9 +50,12 @@ from rap.seeds import derive_rng
 
 __all__ = ["Planner", "RapPlanner", "SimPlanner", "OptimalPlanner", "RandomPlanner",
            "evaluate_steps", "assembly_order", "dp_choice", "dp_tree", "dead_end",
-           "HIGH_PROBABILITY"]
+           "HIGH_PROBABILITY", "FALLBACK_ROUND"]
 
 HIGH_PROBABILITY = 0.5  # the CNN's class decision: P(high) >= 0.5 is "high"
+#: candidates of one subassembly simulated per round of RAP's best-first fallback: two keep two
+#: simulation workers busy at the top of the tree, where one subassembly is open
+FALLBACK_ROUND = 2
 
 
 class _Interlocked(Exception):
@@ -197,45 +202,78 @@ class SimPlanner(_Greedy):
 
 
 class RapPlanner(_Greedy):
-    """RAP: the CNN's most confident *high* candidate, else the simulator's best among all
-    candidates (``fallback_k=None``, the paper's rule) or among the ``fallback_k`` candidates with
-    the highest P(high) (ties: candidate order)."""
+    """RAP: the CNN's most confident *high* candidate, else a simulator fallback (module doc).
+
+    Confidence is P(high), ties (P(high) saturates at 1.0 in float32 for near-certain candidates)
+    broken by the expected score, then by candidate order. A subassembly none of whose candidates
+    reaches ``high_probability`` falls back on the simulator, best first: its candidates are
+    simulated in order of confidence (at most ``fallback_k`` of them; None: all),
+    ``FALLBACK_ROUND`` per subassembly per round (one batch for every open fallback of the level),
+    until the best simulated score exceeds the next candidate's optimistic bound
+    ``p + fallback_optimism (1 - p)``, ``p`` its expected score (no unsimulated candidate is then
+    expected to beat it); the best simulated candidate is taken.
+
+    ``fallback_optimism = 1`` (the default) never stops early: every candidate (or the
+    ``fallback_k`` most confident) is simulated in one batch, the paper's rule with
+    ``high_probability = 0.5``. ``rap.plan.methods`` holds the defaults chosen on held-out
+    assemblies (``RAP_HIGH_PROBABILITY``, ``RAP_FALLBACK_OPTIMISM``).
+    """
 
     name = "rap"
 
-    def __init__(self, high_probability: float = HIGH_PROBABILITY, fallback_k: int | None = None):
+    def __init__(self, high_probability: float = HIGH_PROBABILITY, fallback_k: int | None = None,
+                 fallback_optimism: float = 1.0):
         if fallback_k is not None and fallback_k < 1:
             raise ValueError("fallback_k must be >= 1 (None: every candidate)")
+        if not 0.0 <= fallback_optimism <= 1.0:
+            raise ValueError("fallback_optimism must lie in [0, 1] (1: the paper's fallback)")
         self.high_probability = float(high_probability)
         self.fallback_k = fallback_k
+        self.fallback_optimism = float(fallback_optimism)
 
     def _select(self, problem, scorer, cands, stats):
         flat = [op for c in cands for op in c]
-        probs = _split(scorer.prob_high(problem, flat), cands)
+        ph, ex = scorer.prob_high_and_expected(problem, flat)
+        probs, expected = _split(ph, cands), _split(ex, cands)
         out: list[PlanStep | None] = [None] * len(cands)
         fallback = []
-        for k, (c, p) in enumerate(zip(cands, probs)):
+        for k, (c, p, e) in enumerate(zip(cands, probs, expected)):
             high = [i for i, v in enumerate(p) if v >= self.high_probability]
             if high:
-                i = max(high, key=lambda j: (p[j], -j))
+                i = max(high, key=lambda j: (p[j], e[j], -j))
                 out[k] = PlanStep.of(c[i], "cnn", confidence=p[i])
             else:
                 fallback.append(k)
         stats["fallbacks"] = stats.get("fallbacks", 0) + len(fallback)
-        stats["fallback_candidates"] = stats.get("fallback_candidates", 0)
+        stats.setdefault("fallback_candidates", 0)
         if fallback:
-            picks = []  # per fallback subassembly: indices of the candidates to simulate
+            simulated = self._fallback(problem, scorer, cands, probs, expected, fallback, stats)
             for k in fallback:
-                order = sorted(range(len(cands[k])), key=lambda j: (-probs[k][j], j))
-                picks.append(order if self.fallback_k is None else sorted(order[:self.fallback_k]))
-            fcands = [tuple(cands[k][j] for j in pick) for k, pick in zip(fallback, picks)]
-            flat_f = [op for c in fcands for op in c]
-            stats["fallback_candidates"] += len(flat_f)
-            scores = _split(scorer.scores(problem, flat_f), fcands)
-            for k, c, sc, pick in zip(fallback, fcands, scores, picks):
-                i = _argmax_first(sc)
-                out[k] = PlanStep.of(c[i], "sim", score=sc[i])
+                sc = simulated[k]
+                i = max(sc, key=lambda j: (sc[j], -j))  # the best; ties: candidate order
+                out[k] = PlanStep.of(cands[k][i], "sim", score=sc[i])
         return out  # type: ignore[return-value]
+
+    def _fallback(self, problem, scorer, cands, probs, expected, fallback, stats) -> dict:
+        """The best-first fallback (class doc): ``{k: {candidate index: simulated score}}``."""
+        u = self.fallback_optimism
+        per_round = FALLBACK_ROUND if u < 1.0 else None  # u = 1: nothing stops it, one batch
+        todo = {}
+        for k in fallback:
+            order = sorted(range(len(cands[k])), key=lambda j: (-probs[k][j], -expected[k][j], j))
+            todo[k] = order if self.fallback_k is None else order[:self.fallback_k]
+        simulated: dict[int, dict[int, float]] = {k: {} for k in fallback}
+        active = list(fallback)
+        while active:
+            batch = [(k, j) for k in active for j in todo[k][:per_round]]
+            for k in active:
+                todo[k] = todo[k][len(todo[k][:per_round]):]
+            stats["fallback_candidates"] += len(batch)
+            for (k, j), sc in zip(batch, scorer.scores(problem, [cands[k][j] for k, j in batch])):
+                simulated[k][j] = sc
+            active = [k for k in active if todo[k] and max(simulated[k].values())
+                      <= expected[k][todo[k][0]] + u * (1.0 - expected[k][todo[k][0]])]
+        return simulated
 
 
 def _reachable(problem: PlanningProblem) -> dict[frozenset, tuple[Operation, ...]]:

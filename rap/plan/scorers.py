@@ -8,7 +8,8 @@ A planner sees one object, ``Scorer``, with two questions:
   them in parallel (the Ray ``SimPool``, ``rap.farm.service.PoolSimulator``) sees the whole batch.
 * ``prob_high(problem, ops) -> float [N]``: the CNN's P(high) for each operation, one batch;
   ``expected_scores(problem, ops)``: its expected success rate (the binomial head's calibrated
-  score; what search multiplies).
+  score; what search multiplies); ``prob_high_and_expected``: both from one pass (what RAP ranks
+  by).
 
 Simulator backends (``SimBackend``: ``simulate_many(problem, ops) -> list[CachedScore]``):
 ``LocalSimulator`` runs ``rap.sim.simulator.simulate`` on this machine with the per-operation seed
@@ -305,30 +306,45 @@ class PredictorCnn:
         with self._lock:
             return self._forward("expected_score", images, descriptors)
 
-    def _forward(self, what: str, images: np.ndarray, descriptors: np.ndarray | None = None
-                 ) -> np.ndarray:
+    def prob_high_and_expected(self, problem: PlanningProblem, ops: Sequence[Operation]
+                               ) -> tuple[np.ndarray, np.ndarray]:
+        """``(prob_high, expected_score)`` of each operation from one rendering and one forward
+        pass (a predictor without the combined call is asked twice)."""
+        images, descriptors = self._inputs(problem, ops)
+        with self._lock:
+            if not hasattr(self.predictor, "prob_high_and_expected"):
+                return (self._forward("prob_high", images, descriptors),
+                        self._forward("expected_score", images, descriptors))
+            return self._forward("prob_high_and_expected", images, descriptors)
+
+    def _forward(self, what: str, images: np.ndarray, descriptors: np.ndarray | None = None):
+        """The predictor's ``what`` on the images: float64 [N], or a tuple of them for a method
+        that returns several (``prob_high_and_expected``)."""
         method = getattr(self.predictor, what)
 
-        def run(lo: int, hi: int):
-            if descriptors is None:
-                return method(images[lo:hi])
-            return method(images[lo:hi], descriptors[lo:hi])
+        def run(lo: int, hi: int) -> tuple[np.ndarray, ...]:
+            got = (method(images[lo:hi]) if descriptors is None
+                   else method(images[lo:hi], descriptors[lo:hi]))
+            return tuple(np.asarray(x, dtype=np.float64)
+                         for x in (got if isinstance(got, tuple) else (got,)))
 
         busy = self.cores_busy
         if busy is None or getattr(self.predictor, "engine", None) != "numpy" or not len(images):
-            return np.asarray(run(0, len(images)), dtype=np.float64)
-        if self._threadpools is None:
-            from threadpoolctl import ThreadpoolController
+            parts = [run(0, len(images))]
+        else:
+            if self._threadpools is None:
+                from threadpoolctl import ThreadpoolController
 
-            self._threadpools = ThreadpoolController()
-        out = []
-        for i in range(0, len(images), SHARE_CHUNK):
-            if busy():
-                with self._threadpools.limit(limits=1, user_api="blas"):
-                    out.append(np.asarray(run(i, i + SHARE_CHUNK), dtype=np.float64))
-            else:
-                out.append(np.asarray(run(i, i + SHARE_CHUNK), dtype=np.float64))
-        return np.concatenate(out)
+                self._threadpools = ThreadpoolController()
+            parts = []
+            for i in range(0, len(images), SHARE_CHUNK):
+                if busy():
+                    with self._threadpools.limit(limits=1, user_api="blas"):
+                        parts.append(run(i, i + SHARE_CHUNK))
+                else:
+                    parts.append(run(i, i + SHARE_CHUNK))
+        out = tuple(np.concatenate([p[j] for p in parts]) for j in range(len(parts[0])))
+        return out if len(out) > 1 else out[0]
 
 
 @dataclass
@@ -407,18 +423,29 @@ class Scorer:
         """The CNN's expected score (success rate) for each operation, one batch."""
         return self._cnn_call("expected_score", problem, ops)
 
-    def _cnn_call(self, what: str, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+    def prob_high_and_expected(self, problem: PlanningProblem, ops: Sequence[Operation]
+                               ) -> tuple[np.ndarray, np.ndarray]:
+        """Both of the CNN's numbers for each operation, one batch (one rendering and forward
+        pass where the backend offers ``prob_high_and_expected``, else two calls)."""
+        if self.cnn is not None and not hasattr(self.cnn, "prob_high_and_expected"):
+            return self.prob_high(problem, ops), self.expected_scores(problem, ops)
+        return self._cnn_call("prob_high_and_expected", problem, ops)
+
+    def _cnn_call(self, what: str, problem: PlanningProblem, ops: Sequence[Operation]):
         if self.cnn is None:
             raise RuntimeError("this scorer has no CNN (load a model for methods rap and search)")
         self._check_time()
         t = time.perf_counter()
-        p = np.asarray(getattr(self.cnn, what)(problem, list(ops)), dtype=np.float64)
+        got = getattr(self.cnn, what)(problem, list(ops))
         self.stats.cnn_seconds += time.perf_counter() - t
         self.stats.cnn_batches += 1
         self.stats.cnn_ops += len(ops)
-        if p.shape != (len(ops),):
-            raise RuntimeError(f"CNN returned shape {p.shape} for {len(ops)} operations")
-        return p
+        out = tuple(np.asarray(x, dtype=np.float64) for x in
+                    (got if isinstance(got, tuple) else (got,)))
+        if any(x.shape != (len(ops),) for x in out):
+            raise RuntimeError(f"CNN returned shape {[x.shape for x in out]} for {len(ops)} "
+                               f"operations")
+        return out if isinstance(got, tuple) else out[0]
 
 
 def model_familiarity(meta: dict, geometry_hash: str, images: np.ndarray,

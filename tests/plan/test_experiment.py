@@ -50,27 +50,29 @@ def test_fallback_sweep_methods_and_pareto_table(tmp_path, monkeypatch):
     monkeypatch.setattr(E, "holdout_model",
                         lambda *a, **k: seen.append(k.get("family")) or tmp_path / "m.pt")
     monkeypatch.setattr(E.PredictorCnn, "load", classmethod(lambda cls, path, device="cpu": cnn))
-    methods = ["sim", "rap", "rap-k1", "rap-k3"]
+    methods = ["sim", "rap-paper", "rap-k1-o100", "rap-k3-o100", "rap"]
     rows = E.run_experiment(ds, [six("triangles")], sim_backend=HashSim(), methods=methods,
                             log=lambda s: None)
     by = {r.method: r for r in rows}
-    assert by["rap"].robustness == pytest.approx(by["sim"].robustness)  # k = all: the baseline
-    cands = {m: by[m].extra["fallback_candidates"] for m in ("rap", "rap-k1", "rap-k3")}
-    assert cands["rap-k1"] < cands["rap-k3"] < cands["rap"]
+    assert by["rap-paper"].robustness == pytest.approx(by["sim"].robustness)  # all: the baseline
+    cands = {m: by[m].extra["fallback_candidates"] for m in methods[1:]}
+    assert cands["rap-k1-o100"] < cands["rap-k3-o100"] < cands["rap-paper"]
+    assert cands["rap"] < cands["rap-paper"]  # the default's fallback stops when good enough
     assert seen == ["reference"]  # the family is passed on, for family hold-out models
     md = E.write_report(rows, tmp_path / "r", "sweep")[0].read_text()
-    assert "## Robustness against planning time" in md and "| rap-k3 |" in md
+    assert "## Robustness against planning time" in md and "| rap-k3-o100 |" in md
     with pytest.raises(Exception, match="rap-kK"):
         E.run_experiment(ds, [six("triangles")], sim_backend=HashSim(), methods=["rap-kx"])
     # the confidence threshold: lower -> fewer fallbacks; 100% -> every decision falls back
     rows = E.run_experiment(ds, [six("triangles")], sim_backend=HashSim(),
-                            methods=["rap-p100", "rap-p20", "rap-k1-p20"], log=lambda s: None)
+                            methods=["rap-p100-o100", "rap-p20-o100", "rap-k1-p20"],
+                            log=lambda s: None)
     by.update({r.method: r for r in rows})
-    assert by["rap-p100"].robustness == pytest.approx(by["sim"].robustness)
-    assert by["rap-p20"].fallbacks < by["rap"].fallbacks == by["rap-p100"].fallbacks
-    assert by["rap-k1-p20"].fallbacks == by["rap-p20"].fallbacks
+    assert by["rap-p100-o100"].robustness == pytest.approx(by["sim"].robustness)
+    assert by["rap-p20-o100"].fallbacks < by["rap-paper"].fallbacks == by["rap-p100-o100"].fallbacks
+    assert by["rap-k1-p20"].fallbacks == by["rap-p20-o100"].fallbacks
     for bad, why in (("rap-p0", "1..100"), ("rap-p101", "1..100"), ("rap-k0", ">= 1"),
-                     ("rap-k2-k3", "rap-kK"), ("rap-q5", "rap-kK")):
+                     ("rap-k2-k3", "rap-kK"), ("rap-q5", "rap-kK"), ("rap-o101", "0..100")):
         with pytest.raises(Exception, match=why):
             E.method_planner(bad)
 

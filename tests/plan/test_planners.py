@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from rap.plan.cache import ScoreCache
-from rap.plan.methods import METHODS, make_planner
+from rap.plan.methods import (METHODS, PAPER_RAP, RAP_FALLBACK_OPTIMISM,
+                              RAP_HIGH_PROBABILITY, make_planner)
 from rap.plan.planners import OptimalPlanner, RapPlanner, SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStatus, is_assembly_order
@@ -166,3 +167,52 @@ def test_validator_rejects_collisions_and_bad_orders():
                S(moving=("c",), fixed=("b",), direction=(-1.0, 0.0))]
     assert is_assembly_order(unbuilt, asm.ids) is not None
     assert check_plan(asm, good[:1])  # too few steps
+
+
+def test_rap_breaks_ties_in_p_high_by_the_expected_score():
+    # P(high) saturates at 1.0 in float32 for near-certain candidates: the most confident of
+    # those is the one with the highest expected score, not the first in candidate order
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    r = RapPlanner().solve(problem, fake_scorer(TableCnn(lambda op: 1.0, score_fn=hash_score)))
+    assert r.stats["fallbacks"] == 0
+    whole = problem.candidates(problem.whole)
+    best = max(range(len(whole)), key=lambda j: (hash_score(whole[j]), -j))
+    assert frozenset(r.steps[-1].moving) == whole[best].moving
+
+
+def test_rap_best_first_fallback_with_a_perfect_ranking_is_the_sim_baseline_at_two_per_decision():
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    perfect = TableCnn(lambda op: 0.4 * hash_score(op), score_fn=hash_score)  # never high
+    r = RapPlanner(fallback_optimism=0.0).solve(problem, fake_scorer(perfect))
+    sim = SimPlanner().solve(problem, fake_scorer())
+    assert [s.to_json() for s in r.steps] == [s.to_json() for s in sim.steps]
+    assert r.stats["fallbacks"] == r.stats["decisions"]
+    assert r.stats["fallback_candidates"] <= 2 * r.stats["decisions"]  # one round each
+    assert r.stats["fallback_candidates"] < sim.stats["sim_run"] - sim.stats["eval_simulations"]
+
+
+def test_rap_fallback_optimism_one_is_the_papers_rule_in_one_batch_per_level():
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    low = TableCnn(lambda op: 0.1, score_fn=lambda op: 0.5)  # no ranking, no high candidate
+    scorer = fake_scorer(low)
+    paper = make_planner("rap", **PAPER_RAP).solve(problem, scorer)
+    sim = SimPlanner().solve(problem, fake_scorer())
+    assert [s.to_json() for s in paper.steps] == [s.to_json() for s in sim.steps]
+    assert paper.stats["fallback_candidates"] == sim.stats["sim_run"] - sim.stats["eval_simulations"]
+    # one simulator batch per level (the evaluation finds every chosen step's score cached)
+    assert scorer.stats.sim_calls == paper.stats["levels"]
+    assert vars(make_planner("rap", **PAPER_RAP)) == vars(RapPlanner())
+
+
+def test_rap_defaults_and_a_capped_best_first_fallback():
+    rap = make_planner("rap")
+    assert (rap.high_probability, rap.fallback_optimism, rap.fallback_k) == (
+        RAP_HIGH_PROBABILITY, RAP_FALLBACK_OPTIMISM, None)
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    flat = TableCnn(lambda op: 0.1, score_fn=lambda op: 0.5)
+    capped = RapPlanner(fallback_optimism=0.4, fallback_k=3).solve(problem, fake_scorer(flat))
+    assert capped.stats["fallbacks"] == capped.stats["decisions"]
+    assert capped.stats["fallback_candidates"] <= 3 * capped.stats["decisions"]
+    assert check_plan(problem.assembly, capped.steps) == []
+    with pytest.raises(ValueError):
+        RapPlanner(fallback_optimism=1.5)
