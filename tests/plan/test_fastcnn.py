@@ -49,6 +49,24 @@ def test_shipped_model_runs_without_torch_and_agrees_with_torch():
     assert fast.prob_high(images[:0], None if d is None else d[:0]).shape == (0,)
 
 
+def test_both_numbers_from_one_pass_equal_the_separate_calls_in_torch_and_numpy():
+    torch_predict = pytest.importorskip("rap.model.predict")
+    from rap.commands.plan import default_model_path
+
+    path = default_model_path()
+    problem = PlanningProblem(six("hexagon"), SimParams())
+    ops = list(problem.candidates(problem.whole))
+    for engine in ("auto", "torch"):
+        cnn = PredictorCnn.load(path, engine=engine)
+        ph, e = cnn.prob_high_and_expected(problem, ops)
+        np.testing.assert_array_equal(ph, cnn.prob_high(problem, ops))
+        np.testing.assert_array_equal(e, cnn.expected_score(problem, ops))
+        order = np.argsort(e)  # binomial head: P(high) is monotone in the expected score
+        assert np.all(np.diff(ph[order]) >= 0)
+    assert isinstance(torch_predict.Predictor.load(path).prob_high_and_expected(
+        *_inputs("hexagon", load_fast_predictor(path))), tuple)
+
+
 def test_mirror_averaging_is_the_mean_of_both_passes_in_torch_and_numpy():
     torch_predict = pytest.importorskip("rap.model.predict")
     from rap.commands.plan import default_model_path
