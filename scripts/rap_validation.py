@@ -43,6 +43,9 @@ class _LookupCnn:
     def expected_score(self, problem, ops):
         return np.array([self.tab["pred"][problem.key(op)] for op in ops])
 
+    def prob_high_and_expected(self, problem, ops):  # one CNN call, as PredictorCnn's
+        return self.prob_high(problem, ops), self.expected_score(problem, ops)
+
 
 def replay(name: str, tab: dict, method: str) -> dict:
     """Robustness (simulator scores) and counts of one greedy plan on the tables."""
