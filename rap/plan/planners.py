@@ -7,11 +7,11 @@ subassembly, and both sides are planned the same way down to single parts. The r
 assembly order (children before parents: the disassembly sequence reversed).
 
 * ``RapPlanner`` (the paper's Algorithm 1 with the CNN scorer): the CNN scores every candidate of
-  ``S`` in one batch; among those predicted *high* (P(high) >= 0.5) the most confident is taken;
-  when none is, the candidates are simulated and the best taken (a *fallback*): all of them (the
-  paper's rule, ``fallback_k=None``), only the ``fallback_k`` with the highest P(high), or best
-  first until no unsimulated candidate is expected to beat the best simulated one
-  (``fallback_optimism`` < 1).
+  ``S`` in one batch; among those predicted *high* (P(high) >= ``high_probability``: the paper's
+  0.5; ``rap.plan.methods`` defaults to 0.9) the most confident is taken; when none is, the
+  candidates are simulated and the best taken (a *fallback*): all of them (the paper's rule),
+  at most the ``fallback_k`` with the highest P(high), or best first until no unsimulated
+  candidate is expected to beat the best simulated one (``fallback_optimism`` < 1).
 * ``SimPlanner``: every candidate is simulated; the best is taken.
 * ``OptimalPlanner``: the most robust sequence over the same operation space, maximising the product
   of simulated scores by dynamic programming over subassemblies:
