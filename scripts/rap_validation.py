@@ -21,30 +21,10 @@ import statistics
 import sys
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
 
 import search_validation as sv  # noqa: E402
-
-
-class _LookupCnn:
-    """P(high) and the expected score of each operation from the tables."""
-
-    meta: dict = {}
-
-    def __init__(self, tab):
-        self.tab = tab
-
-    def prob_high(self, problem, ops):
-        return np.array([self.tab["phigh"][problem.key(op)] for op in ops])
-
-    def expected_score(self, problem, ops):
-        return np.array([self.tab["pred"][problem.key(op)] for op in ops])
-
-    def prob_high_and_expected(self, problem, ops):  # one CNN call, as PredictorCnn's
-        return self.prob_high(problem, ops), self.expected_score(problem, ops)
 
 
 def replay(name: str, tab: dict, method: str) -> dict:
@@ -54,7 +34,7 @@ def replay(name: str, tab: dict, method: str) -> dict:
     from rap.plan.scorers import Scorer
 
     problem = sv.problem_of(name)
-    scorer = Scorer(sv._LookupSim(tab["truth"]), _LookupCnn(tab), ScoreCache())
+    scorer = Scorer(sv._LookupSim(tab["truth"]), sv._LookupCnn(tab["pred"], tab["phigh"]), ScoreCache())
     result = method_planner(method).solve(problem, scorer)
     r = math.prod(tab["truth"][problem.key(s.operation)] for s in result.steps)
     st = result.stats

@@ -158,15 +158,23 @@ class _LookupSim:
 
 
 class _LookupCnn:
+    """The model's numbers from the tables: expected scores, and P(high) when given (else the
+    expected score stands in for it)."""
+
     meta: dict = {}
 
-    def __init__(self, pred):
+    def __init__(self, pred, phigh=None):
         self.pred = pred
+        self.phigh = pred if phigh is None else phigh
 
     def expected_score(self, problem, ops):
         return np.array([self.pred[problem.key(op)] for op in ops])
 
-    prob_high = expected_score
+    def prob_high(self, problem, ops):
+        return np.array([self.phigh[problem.key(op)] for op in ops])
+
+    def prob_high_and_expected(self, problem, ops):  # one CNN call, as PredictorCnn's
+        return self.prob_high(problem, ops), self.expected_score(problem, ops)
 
 
 def evaluate(name: str, tab: dict, trust: float | None, simulations: int,

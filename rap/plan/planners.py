@@ -265,9 +265,11 @@ class RapPlanner(_Greedy):
         simulated: dict[int, dict[int, float]] = {k: {} for k in fallback}
         active = list(fallback)
         while active:
-            batch = [(k, j) for k in active for j in todo[k][:per_round]]
+            batch = []
             for k in active:
-                todo[k] = todo[k][len(todo[k][:per_round]):]
+                take = todo[k][:per_round]
+                todo[k] = todo[k][len(take):]
+                batch += [(k, j) for j in take]
             stats["fallback_candidates"] += len(batch)
             for (k, j), sc in zip(batch, scorer.scores(problem, [cands[k][j] for k, j in batch])):
                 simulated[k][j] = sc
