@@ -84,25 +84,32 @@ def profile(names, assemblies, params, seed, model) -> None:
 
 
 def costs(model, problem, ops) -> tuple[dict, float]:
-    """(ms per operation of a forward pass by batch size, ms per operation of rendering)."""
+    """(ms per operation of a forward pass by batch size, ms per operation of the inputs:
+    rendering the images and, for a model that takes them, computing the descriptors)."""
     import numpy as np
 
     from rap.plan.scorers import PredictorCnn
 
     cnn = PredictorCnn.load(model)
-    cnn.images(problem, ops[:8])
+    cnn._inputs(problem, ops[:8])
     t = time.perf_counter()
-    images = cnn.images(problem, ops[:256])
+    images, desc = cnn._inputs(problem, ops[:256])
     render = (time.perf_counter() - t) / len(images) * 1e3
-    images = np.concatenate([images] * (1 + 256 // len(images)))[:256]
+    reps = 1 + 256 // len(images)
+    images = np.concatenate([images] * reps)[:256]
+    desc = None if desc is None else np.concatenate([desc] * reps)[:256]
+
+    def forward(lo, hi):
+        cnn._forward("expected_score", images[lo:hi], None if desc is None else desc[lo:hi])
+
     fwd = {}
     for b in BATCHES:  # the best of three passes over 256 images: this machine is shared
-        cnn._forward("expected_score", images[:b])
+        forward(0, b)
         best = float("inf")
         for _ in range(3):
             n, t = 0, time.perf_counter()
             while n < 256:
-                cnn._forward("expected_score", images[n:n + b])
+                forward(n, n + b)
                 n += b
             best = min(best, (time.perf_counter() - t) / n * 1e3)
         fwd[b] = best
@@ -172,7 +179,7 @@ def main() -> None:
             fwd, render = costs(args.model, problem, ops)
             print("forward ms/operation by batch: "
                   + ", ".join(f"{b}: {v:.2f}" for b, v in fwd.items())
-                  + f"; rendering {render:.2f} ms/operation")
+                  + f"; inputs (images, descriptors) {render:.2f} ms/operation")
         pred = dict(zip((problem.key(o) for o in ops), cnn.expected_score(problem, ops)))
         line, best0 = [], None
         for strategy in ("lazy", "kids", "eager"):
