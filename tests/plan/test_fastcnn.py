@@ -8,7 +8,7 @@ import pickle
 import numpy as np
 import pytest
 
-from rap.plan.fastcnn import load_fast_predictor, read_torch_checkpoint
+from rap.plan.fastcnn import _conv_nhwc, load_fast_predictor, read_torch_checkpoint
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanResult
 from rap.plan.scorers import LocalSimulator, PredictorCnn, foreground_stats
@@ -131,6 +131,18 @@ def test_a_fresh_network_of_the_current_architecture_agrees(tmp_path, norm, head
     np.testing.assert_allclose(p_fast, p_torch, atol=1e-5)
     np.testing.assert_allclose(fast.expected_score(images, d), slow.expected_score(images, d),
                                atol=1e-5)
+
+
+@pytest.mark.parametrize("size, kernel, pad", [(64, 4, 2), (33, 4, 2), (17, 3, 1), (9, 4, 0)])
+def test_even_convolution_is_the_full_one_without_the_rows_pooling_drops(size, kernel, pad):
+    rng = np.random.default_rng(size)
+    x = rng.random((3, size, size, 5), dtype=np.float32)
+    w = rng.standard_normal((7, 5, kernel, kernel)).astype(np.float32)
+    full = _conv_nhwc(x, w, pad)
+    even = _conv_nhwc(x, w, pad, even=True)
+    ho = full.shape[1] - full.shape[1] % 2
+    assert even.shape == (3, ho, ho, 7)
+    np.testing.assert_allclose(even, full[:, :ho, :ho], rtol=1e-5, atol=1e-5)
 
 
 def test_anything_but_the_known_architecture_is_left_to_torch(tmp_path):
