@@ -11,7 +11,8 @@ numbers of each operation, float [N, k]: batch-normalised and appended to the fl
 convolution features, before the fully connected layers.
 
 Four convolutions with 4x4 kernels, each followed by ReLU and 2x2 max-pooling (``norm="batch"``:
-batch normalisation after each convolution); three fully connected layers with ReLU and dropout;
+batch normalisation after each convolution; a convolution computes only the rows and columns that
+the pooling reads, except while batch statistics are gathered); three fully connected layers with ReLU and dropout;
 a final linear layer to the head's outputs.
 """
 
@@ -21,6 +22,7 @@ from dataclasses import asdict, dataclass
 
 import torch
 import torch.nn as nn
+import torch.nn.functional as F
 
 from rap.config import strict_from_dict
 from rap.model.heads import HEADS, out_features
@@ -133,7 +135,11 @@ class RobustnessCNN(nn.Module):
         """Logits of images x [N, C, 64, 64] (and, when configured, descriptors [N, k])."""
         if x.dtype == torch.uint8:
             x = x.float().div_(255.0)
-        h = self.features(x.contiguous(memory_format=torch.channels_last))
+        h = x.contiguous(memory_format=torch.channels_last)
+        # batch statistics in training would see the dropped rows: there, the whole outputs
+        even = not (self.training and self.config.norm == "batch")
+        for layer in self.features:
+            h = _even_conv(layer, h) if even and isinstance(layer, nn.Conv2d) else layer(h)
         if self.config.descriptors:
             if descriptors is None:
                 raise ValueError("this network takes geometric descriptors beside the images")
@@ -142,3 +148,18 @@ class RobustnessCNN(nn.Module):
 
     def num_parameters(self) -> int:
         return sum(p.numel() for p in self.parameters())
+
+
+def _even_conv(conv: nn.Conv2d, x: torch.Tensor) -> torch.Tensor:
+    """``conv(x)`` without the last row (column) of an odd-sized output, which the floor 2x2
+    max-pooling after it never reads: the same values where kept (one less row of padding at
+    the bottom and right). With 4x4 kernels and padding 2 the stages' 65, 33, 17 and 9 become
+    64, 32, 16 and 8: 11% fewer multiply-adds, the same network (and the same gradients)."""
+    p, k = conv.padding, conv.kernel_size
+    if isinstance(p, str) or conv.stride != (1, 1) or conv.dilation != (1, 1):
+        return conv(x)
+    dh = (x.shape[-2] + 2 * p[0] - k[0] + 1) % 2
+    dw = (x.shape[-1] + 2 * p[1] - k[1] + 1) % 2
+    if not (dh or dw):
+        return conv(x)
+    return F.conv2d(F.pad(x, (p[1], p[1] - dw, p[0], p[0] - dh)), conv.weight, conv.bias)

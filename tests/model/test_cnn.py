@@ -28,3 +28,15 @@ def test_config_round_trips_through_a_plain_dict():
     assert ModelConfig.from_dict(d) == cfg
     with pytest.raises(ValueError):
         ModelConfig.from_dict({**d, "bogus": 1})
+
+
+@pytest.mark.parametrize("norm, training", [("none", True), ("none", False), ("batch", False),
+                                            ("batch", True)])
+def test_the_forward_pass_is_the_plain_layer_stack(norm, training):
+    """The convolutions skip the rows the pooling drops: the logits are the full stack's."""
+    torch.manual_seed(0)
+    net = RobustnessCNN(ModelConfig(norm=norm, dropout=0.0))
+    net.train(training)
+    x = torch.rand(5, 2, 64, 64)
+    full = net.head(net.features(x.contiguous(memory_format=torch.channels_last)))
+    torch.testing.assert_close(net(x), full, rtol=1e-5, atol=1e-5)
