@@ -12,8 +12,8 @@ convolution features, before the fully connected layers.
 
 Four convolutions with 4x4 kernels, each followed by ReLU and 2x2 max-pooling (``norm="batch"``:
 batch normalisation after each convolution; a convolution computes only the rows and columns that
-the pooling reads, except while batch statistics are gathered); three fully connected layers with ReLU and dropout;
-a final linear layer to the head's outputs.
+the pooling reads, except while batch statistics are gathered); three fully connected layers with
+ReLU and dropout; a final linear layer to the head's outputs.
 """
 
 from __future__ import annotations

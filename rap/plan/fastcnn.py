@@ -23,10 +23,11 @@ Contract:
   ``tests/plan/test_fastcnn.py`` compares both on the shipped model and on a freshly built network,
   so a change of ``RobustnessCNN`` that this module does not follow fails there.
 
-Cost: about 23 M multiply-adds per image pair (26 M in torch, which also computes the last
-row and column of odd-sized convolution outputs that the floor pooling drops): per stage one
-im2col copy (``kh`` strided copies of overlapping kernel rows) and one BLAS matmul, batch norm
-folded into the weights, pooling before bias and ReLU. 1.8 ms per image on 2 cores (torch, once imported: 1.3 ms), batches of ``CHUNK``
+Cost: about 23 M multiply-adds per image pair (the convolutions skip the output rows and columns
+that the floor pooling drops, as ``RobustnessCNN`` does at inference): per stage one im2col copy
+(``kh`` strided copies of overlapping kernel rows) and one BLAS matmul, batch norm folded into the
+weights, pooling before bias and ReLU. 0.5-0.6 ms per operation on 2 cores at batches of 4-16
+(torch, once imported: 0.2-0.27 ms; ``python benchmarks/even_conv.py``), batches of ``CHUNK``
 images at a time to bound memory. No torch, no ray, no pyarrow.
 """
 
