@@ -354,12 +354,11 @@ def _familiarity(asm, cnn, space: str, err, problem=None) -> None:
     """Warn when ``asm`` is far from what the model was trained on (checkpoint metadata)."""
     try:
         from rap.plan.problem import PlanningProblem
-        from rap.plan.scorers import model_familiarity
+        from rap.plan.scorers import familiarity_operations, model_familiarity
         from rap.sim.params import SimParams
 
         problem = problem or PlanningProblem(asm, SimParams(), space=space)
-        ops = list(problem.candidates(problem.whole))
-        images = cnn.images(problem, ops)
+        images = cnn.images(problem, familiarity_operations(problem))
         notes = model_familiarity(cnn.meta, asm.geometry_hash, images)
     except RapError:
         raise
