@@ -6,6 +6,7 @@ Layout of a dataset directory ``DIR``::
                                             simulator parameters, code version)
     DIR/NAME/part-<uuid>.parquet            shards, one directory per assembly (the ``assembly``
                                             column is in every shard, so each file stands alone)
+    DIR/_assemblies/NAME.json               each labelled assembly's geometry (``write_geometry``)
 
 Shards are written to a temporary name in the same directory, fsync'ed and renamed into place, so
 a reader (or a resumed run) never sees a half-written file. Readers: ``pyarrow.dataset``,
@@ -39,6 +40,8 @@ __all__ = [
     "IMAGE_BYTES",
     "SCHEMA",
     "METADATA_FILE",
+    "GEOMETRY_DIR",
+    "write_geometry",
     "DatasetMeta",
     "rows_to_table",
     "write_shard",
@@ -56,6 +59,7 @@ SCHEMA_VERSION = 2
 IMAGE_SIZE = 64
 IMAGE_BYTES = 2 * IMAGE_SIZE * IMAGE_SIZE
 METADATA_FILE = "_rapfarm.json"
+GEOMETRY_DIR = "_assemblies"  # the labelled assemblies' geometry (write_geometry)
 _TMP_PREFIX = ".tmp-"
 COMPRESSION_LEVEL = 12  # zstd: ~25% smaller shards than the default level at ~0.1 ms per row
 
@@ -168,17 +172,42 @@ def clean_partial_files(root: str | Path) -> int:
     return n
 
 
-def write_meta(root: str | Path, meta: DatasetMeta) -> None:
-    """Atomically write the dataset metadata file."""
-    root = Path(root)
-    root.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, dir=root)
+def _write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, dir=path.parent)
     os.fchmod(fd, committed_file_mode())
     with os.fdopen(fd, "w") as fh:
-        fh.write(meta.to_json())
+        fh.write(text)
         fh.flush()
         os.fsync(fh.fileno())
-    os.replace(tmp, root / METADATA_FILE)
+    os.replace(tmp, path)
+
+
+def write_meta(root: str | Path, meta: DatasetMeta) -> None:
+    """Atomically write the dataset metadata file."""
+    _write_atomic(Path(root) / METADATA_FILE, meta.to_json())
+
+
+def write_geometry(root: str | Path, assemblies: Iterable) -> int:
+    """Keep each assembly's geometry beside the rows, as ``GEOMETRY_DIR/NAME.json`` (canonical
+    JSON, atomically; readers skip ``_`` paths), so that views and descriptors can be made again
+    from the dataset alone (``rap.model.views``). A file that holds the same geometry is left as
+    it is. Returns how many files were written. Cost: one small file per assembly."""
+    from rap.io import load_assembly
+    from rap.assembly import AssemblyError, assembly_to_json
+
+    n = 0
+    for a in assemblies:
+        path = Path(root) / GEOMETRY_DIR / f"{a.name}.json"
+        if path.is_file():
+            try:
+                if load_assembly(path, validate=False).geometry_hash == a.geometry_hash:
+                    continue
+            except AssemblyError:
+                pass  # unreadable: written again
+        _write_atomic(path, json.dumps(assembly_to_json(a), separators=(",", ":")) + "\n")
+        n += 1
+    return n
 
 
 def read_meta(root: str | Path) -> DatasetMeta | None:

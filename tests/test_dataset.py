@@ -32,3 +32,24 @@ def test_schema_1_shards_read_with_null_new_columns(tmp_path):
     pq.write_table(t, tmp_path / "a" / "part-old.parquet")
     back = open_dataset(tmp_path).to_table()
     assert back.num_rows == 1 and back.column("family").to_pylist() == [None]
+
+
+def test_geometry_kept_beside_the_rows_once_and_replaced_when_other(tmp_path):
+    from pathlib import Path
+
+    from rap.dataset import GEOMETRY_DIR, write_geometry
+    from rap.io import load_assembly
+
+    root = Path(__file__).resolve().parents[1] / "assemblies"
+    grid, hexagon = load_assembly(root / "grid.json"), load_assembly(root / "hexagon.json")
+    assert write_geometry(tmp_path, [grid, hexagon]) == 2
+    kept = tmp_path / GEOMETRY_DIR / "grid.json"
+    assert load_assembly(kept).geometry_hash == grid.geometry_hash
+    before = kept.stat().st_mtime_ns
+    assert write_geometry(tmp_path, [grid]) == 0 and kept.stat().st_mtime_ns == before
+    kept.write_text("{not json")  # unreadable: written again
+    assert write_geometry(tmp_path, [grid]) == 1
+    assert load_assembly(kept).geometry_hash == grid.geometry_hash
+    (tmp_path / GEOMETRY_DIR / "hexagon.json").write_bytes(kept.read_bytes())  # other geometry
+    assert write_geometry(tmp_path, [hexagon]) == 1
+    assert load_assembly(tmp_path / GEOMETRY_DIR / "hexagon.json").geometry_hash == hexagon.geometry_hash

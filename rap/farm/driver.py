@@ -35,7 +35,8 @@ import time
 from pathlib import Path
 from typing import Callable, Iterator
 
-from rap.dataset import SCHEMA_VERSION, DatasetMeta, clean_partial_files, rows_to_table, write_meta, write_shard
+from rap.dataset import (SCHEMA_VERSION, DatasetMeta, clean_partial_files, rows_to_table, write_geometry,
+                         write_meta, write_shard)
 
 from rap.farm.pool import Job, SimPool
 from rap.farm.runtime import connect
@@ -128,6 +129,7 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
             write_meta(out, DatasetMeta(schema_version=SCHEMA_VERSION, root_seed=int(cfg.seed),
                                         params=json.loads(json.dumps(plan.params.to_dict())),
                                         command=cfg.command))
+        write_geometry(out, plan.assemblies)
         clean_partial_files(out)
 
     if plan.total == 0:

@@ -2,8 +2,9 @@
 
 A dataset stores the start/goal pair (``view="pair"``). The ``"pair+crop"`` view adds the close-up
 of the mating region (``rap.render.images.render_crop``), which the dataset does not store: it is
-rendered from each row's assembly, found as ``DATASET/_assemblies/NAME.json`` (the corpus ships
-them), else among the packaged reference assemblies, and checked against the row's geometry hash.
+rendered from each row's assembly, found as ``DATASET/_assemblies/NAME.json`` (``rap-farm label``
+writes them: ``rap.dataset.write_geometry``; the corpus ships them), else among the packaged
+reference assemblies, and checked against the row's geometry hash.
 The rendered channels are cached under ``$RAP_CACHE_DIR`` (default ``~/.cache/rap-farm/views``) by
 the dataset's content (the keys of its rows), so they are rendered once per dataset version.
 
@@ -112,8 +113,9 @@ class DatasetGeometry:
 
             f = assembly_file(self.root, name)
             if f is None:
-                raise InputError(f"{self.root}: no geometry for assembly {name!r} (expected "
-                                 f"_assemblies/{name}.json) to {self.purpose}")
+                raise InputError(f"{self.root}: no geometry for assembly {name!r} to "
+                                 f"{self.purpose}: expected _assemblies/{name}.json (rap-farm "
+                                 f"label writes it; or copy the assembly's JSON file there)")
             a = self._assemblies[name] = load_assembly(f)
         if a.geometry_hash != geometry_hash:
             raise InputError(f"{self.root}: assembly {name!r}: the geometry of "

@@ -59,6 +59,11 @@ def test_dataset_rows_schema_and_readers(reference, ray_local):
     assert set(t.column("family").to_pylist()) == {"reference"}  # from the assembly files
     assert set(t.column("direction_index").to_pylist()) == {0}  # one direction per range
     assert (out / METADATA_FILE).exists()
+    from rap.io import load_assembly
+
+    for path in TWO:  # the geometry beside the rows: views and descriptors from the dataset alone
+        a = load_assembly(path)
+        assert load_assembly(out / "_assemblies" / f"{a.name}.json").geometry_hash == a.geometry_hash
     imgs = decode_images(open_dataset(out).to_table(columns=["image"]).column("image"))
     assert imgs.shape == (20, 2, 64, 64)
     rows = t.to_pylist()
@@ -70,7 +75,7 @@ def test_dataset_rows_schema_and_readers(reference, ray_local):
     assert len({r["key"] for r in rows}) == 20
     mask = os.umask(0)
     os.umask(mask)
-    for f in [out / METADATA_FILE, *out.glob("*/part-*.parquet")]:  # readable like any file
+    for f in [out / METADATA_FILE, *out.glob("*/part-*.parquet"), *out.glob("_assemblies/*")]:
         assert f.stat().st_mode & 0o777 == 0o666 & ~mask, f
     meta = read_meta(out)
     assert meta.root_seed == 11 and meta.params["trials"] == 3 and "label" in meta.command
