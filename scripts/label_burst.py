@@ -33,7 +33,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rap.dataset import SCHEMA_VERSION, DatasetMeta, open_dataset, rows_to_table, write_meta, write_shard  # noqa: E402
+from rap.dataset import (SCHEMA_VERSION, DatasetMeta, open_dataset, rows_to_table,  # noqa: E402
+                         write_geometry, write_meta, write_shard)
 from rap.farm.rows import Backend, label_rows, params_json, resolve  # noqa: E402
 from rap.farm.selection import LabelConfig, LabelSummary, iter_jobs, prepare  # noqa: E402
 
@@ -153,6 +154,7 @@ def main() -> None:
         write_meta(out, DatasetMeta(schema_version=SCHEMA_VERSION, root_seed=int(a.seed),
                                     params=json.loads(json.dumps(plan.params.to_dict())),
                                     command="scripts/label_burst.py"))
+    write_geometry(out, plan.assemblies)  # as rap-farm label does
     label(plan, a.processes, deadline, out)
 
 
