@@ -22,7 +22,7 @@ counts follow, none of them timed:
     python scripts/search_validation.py --set unseen      # builds the tables (once)
     python scripts/planning_bounds.py --set unseen [--per-assembly]
 
-No simulation, no CNN: seconds. Cost: the graphs are enumerated once per assembly and method.
+No simulation, no CNN: seconds. Cost: each graph is enumerated once (candidates memoised).
 """
 
 from __future__ import annotations
@@ -42,31 +42,35 @@ import search_validation as sv  # noqa: E402
 HIGH = 0.95  # the class threshold of the paper and the corpus
 
 
-def search_counts(problem, truth: dict, pred: dict, beam_width: int | None = None) -> tuple[float, int]:
-    """``(R / R optimal, operations scored)`` of ``SearchPlanner`` without simulations, planning
-    on ``pred`` (key -> predicted score) and judged by ``truth`` (key -> simulated score); exact
+def optimum(problem, graph: dict, truth: dict) -> float:
+    """The optimum's robustness: the DP over ``truth`` (key -> simulated score) on ``graph``."""
+    from rap.plan.planners import dp_choice
+
+    best, _ = dp_choice(graph, {s: [truth[problem.key(op)] for op in c] for s, c in graph.items()})
+    return best[problem.whole]
+
+
+def search_counts(problem, truth: dict, pred: dict, r_opt: float,
+                  beam_width: int | None = None) -> tuple[float, int]:
+    """``(R / r_opt, operations scored)`` of ``SearchPlanner`` without simulations, planning on
+    ``pred`` (key -> predicted score) and judged by ``truth`` (key -> simulated score); exact
     search unless ``beam_width`` is given (then always the beam)."""
     from rap.plan.cache import ScoreCache
-    from rap.plan.planners import dp_choice
     from rap.plan.scorers import Scorer
-    from rap.plan.search import SearchPlanner, _graph
+    from rap.plan.search import SearchPlanner
 
-    graph = _graph(problem, 10**9)
-    best, _ = dp_choice(graph, {s: [truth[problem.key(op)] for op in c] for s, c in graph.items()})
     planner = (SearchPlanner() if beam_width is None
                else SearchPlanner(beam_width=beam_width, max_operations=1))
     result = planner.solve(problem, Scorer(sv._LookupSim(truth), sv._LookupCnn(pred), ScoreCache()))
     r = math.prod(truth[problem.key(s.operation)] for s in result.steps)
-    return r / best[problem.whole], int(result.stats["predicted_operations"])
+    return r / r_opt, int(result.stats["predicted_operations"])
 
 
-def greedy_path(problem, truth: dict) -> dict:
+def greedy_path(problem, graph: dict, truth: dict) -> dict:
     """Simulator-only greedy's path on ``truth`` (top down, the best-scoring candidate of each
-    subassembly, the first on ties): ``decisions``, ``candidates`` (all scored along the path),
-    ``no_high`` (decisions without a candidate >= ``HIGH``) and ``no_high_candidates`` (theirs)."""
-    from rap.plan.search import _graph
-
-    graph = _graph(problem, 10**9)
+    subassembly of ``graph``, the first on ties): ``decisions``, ``candidates`` (all scored along
+    the path), ``no_high`` (decisions without a candidate >= ``HIGH``) and
+    ``no_high_candidates`` (theirs)."""
     out = {"decisions": 0, "candidates": 0, "no_high": 0, "no_high_candidates": 0}
     stack = [problem.whole]
     while stack:
@@ -96,15 +100,19 @@ def main() -> None:
     if not path.exists():
         sys.exit(f"{path}: no score tables; run python scripts/search_validation.py --set {a.set}")
     tabs = pickle.loads(path.read_bytes())
+    from rap.plan.search import _graph
+
     rows = []
     for name, tab in tabs.items():
-        problem = sv.problem_of(name)
+        problem = sv.problem_of(name)  # its candidates are memoised: enumerated once
         truth = tab["truth"]
-        _, model_ops = search_counts(problem, truth, tab["pred"])
-        r_perfect, perfect_ops = search_counts(problem, truth, truth)
-        g = greedy_path(problem, truth)
-        rows.append({"name": name, "operations": len(truth), "model": model_ops,
-                     "perfect": perfect_ops, "r_perfect": r_perfect, **g})
+        graph = _graph(problem, 10**9)
+        r_opt = optimum(problem, graph, truth)
+        _, model_ops = search_counts(problem, truth, tab["pred"], r_opt)
+        r_perfect, perfect_ops = search_counts(problem, truth, truth, r_opt)
+        g = greedy_path(problem, graph, truth)
+        rows.append({"name": name, "problem": problem, "r_opt": r_opt, "operations": len(truth),
+                     "model": model_ops, "perfect": perfect_ops, "r_perfect": r_perfect, **g})
         if a.per_assembly:
             print(f"{name:16s} operations {len(truth):6d}  exact search scores {model_ops:5d} "
                   f"(model) {perfect_ops:5d} (perfect)  greedy path {g['candidates']:4d}  "
@@ -120,8 +128,8 @@ def main() -> None:
           f"perfect scorer's R / R opt {mean(r['r_perfect'] for r in rows):.3f}")
     print("2. beam with a perfect scorer:  width  R/R opt  worst  scored  over greedy's path")
     for w in (int(x) for x in a.widths.split(",")):
-        res = [search_counts(sv.problem_of(r["name"]), tabs[r["name"]]["truth"],
-                             tabs[r["name"]]["truth"], beam_width=w) for r in rows]
+        res = [search_counts(r["problem"], tabs[r["name"]]["truth"], tabs[r["name"]]["truth"],
+                             r["r_opt"], beam_width=w) for r in rows]
         print(f"{w:>36d} {mean(x for x, _ in res):8.3f} {min(x for x, _ in res):6.3f} "
               f"{mean(n for _, n in res):7.0f} "
               f"{mean(n / r['candidates'] for (_, n), r in zip(res, rows)):6.1f}x", flush=True)

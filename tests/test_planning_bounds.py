@@ -3,9 +3,7 @@ with seeded scores (no simulation, no model)."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,17 +14,12 @@ from rap.plan.search import _graph
 from rap.sim.params import SimParams
 
 from tests.plan.cases import six
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.scripts import load_script
 
 
 @pytest.fixture(scope="module")
 def bounds():
-    spec = importlib.util.spec_from_file_location("planning_bounds",
-                                                  ROOT / "scripts" / "planning_bounds.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("planning_bounds")
 
 
 @pytest.fixture(scope="module")
@@ -41,15 +34,16 @@ def case():
 
 def test_a_perfect_scorer_finds_the_optimum_scoring_at_most_the_graph(bounds, case):
     problem, graph, truth = case
-    r, scored = bounds.search_counts(problem, truth, truth)
+    r, scored = bounds.search_counts(problem, truth, truth, bounds.optimum(problem, graph, truth))
     assert r == pytest.approx(1.0, abs=1e-12)
     assert 0 < scored <= sum(len(c) for c in graph.values())
 
 
 def test_a_beam_of_one_is_simulator_only_greedy(bounds, case):
     problem, graph, truth = case
-    r, scored = bounds.search_counts(problem, truth, truth, beam_width=1)
-    g = bounds.greedy_path(problem, truth)
+    r, scored = bounds.search_counts(problem, truth, truth, bounds.optimum(problem, graph, truth),
+                                     beam_width=1)
+    g = bounds.greedy_path(problem, graph, truth)
     assert scored == g["candidates"] and g["decisions"] == len(problem.whole) - 1
     # the greedy product, judged against the optimum
     best, _ = dp_choice(graph, {s: [truth[problem.key(op)] for op in c] for s, c in graph.items()})
@@ -66,12 +60,12 @@ def test_a_beam_of_one_is_simulator_only_greedy(bounds, case):
 
 
 def test_fallbacks_counted_only_where_no_candidate_is_high(bounds, case):
-    problem, _, truth = case
-    g = bounds.greedy_path(problem, truth)
+    problem, graph, truth = case
+    g = bounds.greedy_path(problem, graph, truth)
     assert 0 <= g["no_high"] <= g["decisions"] and g["no_high_candidates"] <= g["candidates"]
-    all_high = bounds.greedy_path(problem, dict.fromkeys(truth, 1.0))
+    all_high = bounds.greedy_path(problem, graph, dict.fromkeys(truth, 1.0))
     assert all_high["no_high"] == 0 and all_high["no_high_candidates"] == 0
-    none_high = bounds.greedy_path(problem, dict.fromkeys(truth, 0.9))
+    none_high = bounds.greedy_path(problem, graph, dict.fromkeys(truth, 0.9))
     assert none_high["no_high"] == none_high["decisions"] == len(problem.whole) - 1
     assert none_high["no_high_candidates"] == none_high["candidates"]
     assert math.isclose(bounds.HIGH, 0.95)

@@ -1,7 +1,6 @@
 """The benchmark of assemblies no model was trained on (scripts/make_unseen.py): valid, feasible,
 exact, none of them in the corpus, and exactly what the script writes."""
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -11,16 +10,14 @@ from rap.geometry.andor import and_or_graph
 from rap.geometry.ndbg import build_ndbg
 from rap.io import load_assembly
 
+from tests.scripts import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
 FILES = sorted((ROOT / "assemblies" / "unseen").glob("*.json"))
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("make_unseen",
-                                                  ROOT / "scripts" / "make_unseen.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("make_unseen")
 
 
 def test_thirteen_assemblies_three_new_kinds_and_ten_fresh_seeds():
