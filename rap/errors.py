@@ -1,10 +1,26 @@
-"""User-facing errors and the CLI's documented exit statuses."""
+"""User-facing errors and the CLI's documented exit statuses.
 
-__all__ = ["RapError", "InputError", "EXIT_OK", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_INTERRUPTED"]
+=====  =====================================================================================
+ 0     success
+ 1     no feasible sequence (``plan``: an interlocked subassembly or a blocking constraint is
+       named)
+ 2     invalid input or usage: one line naming the file, the part or entity and the problem;
+       nothing already written is touched
+ 3     the work failed: labelling failed for some assemblies, the simulation workers did not
+       start, or a file could not be written (disk full, read-only); committed work is kept
+ 4     internal error (a bug in rap-farm): one line; ``RAP_DEBUG=1`` shows the traceback
+130    interrupted (Ctrl-C, SIGTERM): committed work is kept
+=====  =====================================================================================
+"""
+
+__all__ = ["RapError", "InputError", "WorkFailedError", "StorageError", "EXIT_OK",
+           "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_FAILED", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
 
 EXIT_OK = 0
 EXIT_INFEASIBLE = 1  # no sequence / interlocked (plan)
 EXIT_INPUT = 2  # invalid input: one-line error, nothing written
+EXIT_FAILED = 3  # the work failed (labelling, workers, storage); committed work kept
+EXIT_INTERNAL = 4  # an internal error: a bug, never a user's mistake
 EXIT_INTERRUPTED = 130  # Ctrl-C: committed work kept
 
 
@@ -16,3 +32,14 @@ class RapError(Exception):
 
 class InputError(RapError):
     """Bad input: a file, an option or a dataset that cannot be used. Exit status 2."""
+
+
+class WorkFailedError(RapError):
+    """Work that could not be done although the input was valid. Exit status 3."""
+
+    exit_code = EXIT_FAILED
+
+
+class StorageError(WorkFailedError):
+    """A file could not be written (disk full, read-only, permissions): one line saying where.
+    Exit status 3; what was committed before stays intact and no temporary file is left."""
