@@ -2,8 +2,11 @@
 
 Each command lives in ``rap.commands.<name>`` and registers itself with ``register(app)``; heavy
 imports (ray, torch) happen inside the command bodies. Errors derived from ``RapError`` print one
-line to stderr and exit with their documented status (2 for bad input, 1 for an infeasible plan,
-130 when interrupted); no traceback is shown unless ``RAP_DEBUG=1``.
+line to stderr and exit with their documented status (``rap.errors``: 1 for an infeasible plan, 2 for
+bad input, 3 for work that failed, 130 when interrupted). An ``OSError`` that reaches ``main`` (a
+file that cannot be written: disk full, read-only, permissions) is one line naming the path, exit 3;
+any other exception is a bug in rap-farm: one line, exit 4, never exit 1 (which means "no feasible
+sequence"). No traceback is shown unless ``RAP_DEBUG=1``.
 
 Usage errors (a missing argument, an unknown option, a bad value) print the CLI stack's short usage
 message and exit 2. The app runs with ``standalone_mode=False``, so the stack's own exceptions reach
@@ -23,18 +26,19 @@ import sys
 import typer
 
 from rap import __version__
-from rap.errors import EXIT_INPUT, EXIT_INTERRUPTED, RapError
+from rap.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, RapError
 
 __all__ = ["app", "main"]
 
-COMMAND_MODULES = ("inspect", "show", "generate", "simulate", "label", "train", "evaluate",
-                   "score", "plan", "serve", "experiment", "demo")
+COMMAND_MODULES = ("inspect", "show", "generate", "simulate", "label", "check", "train",
+                   "evaluate", "score", "plan", "serve", "experiment", "demo")
 
 app = typer.Typer(
     name="rap-farm",
     help="Robust 2D assembly sequencing: exact NDBG partitions, a physics robustness simulator, "
          "a Ray labelling farm and a CNN scorer (RAP).\n\nExit status: 0 ok, 1 no feasible "
-         "sequence, 2 invalid input, 130 interrupted.",
+         "sequence, 2 invalid input, 3 work failed (labelling, workers, disk full), 4 internal "
+         "error, 130 interrupted.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
@@ -107,7 +111,20 @@ def main(argv: list[str] | None = None) -> None:
             _interrupted()
         if kind == "exit":
             sys.exit(getattr(exc, "exit_code", 0))
-        raise
+        if os.environ.get("RAP_DEBUG"):
+            raise
+        if isinstance(exc, OSError):
+            where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+            print(f"rap-farm: error: {where}{exc.strerror or exc} (nothing more was written)",
+                  file=sys.stderr)
+            sys.exit(EXIT_FAILED)
+        if isinstance(exc, MemoryError):
+            print("rap-farm: error: out of memory", file=sys.stderr)
+            sys.exit(EXIT_FAILED)
+        line = " ".join(str(exc).split())[:300]
+        print(f"rap-farm: internal error: {type(exc).__name__}: {line} (a bug in rap-farm "
+              f"{__version__}; RAP_DEBUG=1 shows the traceback)", file=sys.stderr)
+        sys.exit(EXIT_INTERNAL)
     # In non-standalone mode an Exit (--help, --version, typer >= 0.20's Ctrl-C as Exit(130)) is
     # returned as its status; commands themselves return None.
     if isinstance(status, int) and not isinstance(status, bool) and status:

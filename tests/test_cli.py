@@ -98,3 +98,36 @@ def test_a_local_plan_and_a_refused_serve_need_no_ray_torch_matplotlib_or_pyarro
                        capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
     assert p.returncode == 2 and "token" in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1, p.stderr
+
+
+def test_an_internal_error_is_one_line_and_exit_4_never_1(run_cli, monkeypatch):
+    """Exit 1 means "no feasible sequence": a bug must never look like that answer."""
+    import rap.io
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.delenv("RAP_DEBUG", raising=False)
+    monkeypatch.setattr(rap.io, "load_assembly", broken)
+    code, out, err = run_cli("inspect", HEXAGON)
+    assert code == 4, err
+    assert err.strip() == ("rap-farm: internal error: ZeroDivisionError: float division by zero "
+                           f"(a bug in rap-farm {__import__('rap').__version__}; RAP_DEBUG=1 "
+                           "shows the traceback)")
+
+
+def test_a_file_that_cannot_be_written_is_one_line_and_exit_3(run_cli, tmp_path, monkeypatch):
+    """An OSError (here ENOSPC from the picture writer) names the path; exit 3, no traceback."""
+    import errno
+
+    import rap.render.pictures as pictures
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / "a.png"))
+
+    monkeypatch.delenv("RAP_DEBUG", raising=False)
+    monkeypatch.setattr(pictures, "assembly_figure", full)
+    code, out, err = run_cli("show", HEXAGON, "-o", tmp_path / "a.png")
+    assert code == 3, err
+    assert err.strip() == (f"rap-farm: error: {tmp_path / 'a.png'}: No space left on device "
+                           "(nothing more was written)")

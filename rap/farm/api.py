@@ -1,9 +1,12 @@
 """The planning service's contract, without ray or fastapi: its settings and its request parser.
 
-Every request's work is bounded: at most ``max_parts`` parts (``max_optimal_parts`` for the
+Every request's work is bounded: the assembly within ``rap.assembly.LIMITS`` (coordinates,
+vertices, holes; checked on the numbers' text before any arithmetic), at most ``max_parts`` parts (``max_optimal_parts`` for the
 optimum, whose search visits every reachable subassembly), ``max_simulations`` fresh simulations
 and ``plan_budget_s`` seconds of search; a request that reaches a budget gets the
-``"feasible": null, "status": "budget spent"`` document.
+``"feasible": null, "status": "budget spent"`` document. Reading and validating take at most
+``parse_budget_s`` and the whole answer at most ``plan_budget_s + answer_grace_s``; past either the
+service answers 503 (``rap.farm.serve`` runs both off its event loop).
 
 ``ServeConfig`` holds every setting of ``rap-farm serve`` (``check()`` refuses, in one line, what
 must not start: a non-loopback host without a bearer token, a short token, a bad port).
@@ -20,10 +23,10 @@ from __future__ import annotations
 
 import ipaddress
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from decimal import Decimal, InvalidOperation
 
-from rap.assembly import AssemblyError
+from rap.assembly import LIMITS, AssemblyError, json_error_reason
 from rap.io import parse_assembly
 from rap.errors import InputError
 from rap.plan.methods import DEFAULT_METHOD, METHODS
@@ -59,10 +62,13 @@ class ServeConfig:
     trials: int = 100  # simulator trials per operation
     max_body_bytes: int = 1 << 20
     max_parts: int = 64
+    max_vertices: int = 20_000  # in all; the worst-case validation stays within parse_budget_s
     max_optimal_parts: int = 16  # the optimum's search visits every reachable subassembly
     max_simulations: int = 2000  # fresh simulations of one request's search
     max_concurrent: int = 16  # requests planned at once
     plan_budget_s: float = 600.0  # wall-time budget of one request's search
+    parse_budget_s: float = 10.0  # reading and validating one request's assembly (off the loop)
+    answer_grace_s: float = 30.0  # past plan_budget_s + this, a request is answered 503
     cache_flush_s: float = 30.0  # write the cache file at most this often
 
     def to_dict(self) -> dict:
@@ -137,15 +143,17 @@ def _planner_options(raw, method: str, max_simulations: int) -> dict:
 
 
 def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: int = 16,
-                       max_simulations: int = 2000):
+                       max_simulations: int = 2000, max_vertices: int = 20_000):
     """(assembly, method, root seed, planner options) of a ``POST /plan`` body, or
     ``BadRequest``."""
     try:
         doc = json.loads(body, parse_float=Decimal, parse_int=int,
                          parse_constant=_reject_constant)
-    except (ValueError, RecursionError, InvalidOperation) as exc:
-        why = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
-        raise BadRequest(400, f"request body is not valid JSON: {why}") from None
+    except RecursionError:
+        raise BadRequest(400, "request body is nested too deeply (a plan request needs 6 "
+                              "levels)") from None
+    except (ValueError, InvalidOperation) as exc:
+        raise BadRequest(400, f"request body is not valid JSON: {json_error_reason(exc)}") from None
     if not isinstance(doc, dict):
         raise BadRequest(400, "request body must be a JSON object {\"assembly\": {...}, "
                               "\"method\": ..., \"seed\": ...}")
@@ -167,7 +175,8 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
         raise BadRequest(413, f"assembly: {len(raw['parts'])} parts; this service plans at most "
                               f"{max_parts}")
     try:
-        assembly = parse_assembly(raw, source="assembly", default_name="assembly")
+        assembly = parse_assembly(raw, source="assembly", default_name="assembly",
+                                  limits=replace(LIMITS, max_vertices=max_vertices))
     except AssemblyError as exc:
         raise BadRequest(400, str(exc)) from None
     except RecursionError:

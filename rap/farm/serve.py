@@ -23,9 +23,12 @@ Bad requests get a 4xx status and ``{"error": "<one line>"}``: 400 for a body th
 not an object of those keys, an invalid assembly (the one-line ``AssemblyError`` text of the CLI,
 with ``assembly`` as the source), an unknown method or a seed that is not an integer; 413 for a
 body over ``max_body_bytes`` or an assembly of more than ``max_parts`` parts (``max_optimal_parts``
-for method optimal); 401 without the bearer token when one is set. Numbers are parsed as decimals,
-exactly as ``load_assembly`` reads a file. Any failure while planning is a 500 with one line; the
-replica keeps serving.
+for method optimal); 401 without the bearer token when one is set; 503 when reading the assembly
+takes over ``parse_budget_s`` or the answer over ``plan_budget_s + answer_grace_s``. Numbers are
+parsed as decimals, exactly as ``load_assembly`` reads a file, within ``rap.assembly.LIMITS``.
+Reading, validating and planning run on threads, never on the event loop, so ``/health`` answers
+throughout. A 500 is only for the service's own faults (a bug), with one line; the replica keeps
+serving.
 
 Concurrency: each request is planned on one of ``max_concurrent`` threads of the replica; the
 requests' simulation batches go to the shared pool at the same time (``SimPool`` keeps its
@@ -118,7 +121,8 @@ _PLAN_BODY_SCHEMA = {
     "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document)"},
                   "400": {"description": "Malformed request or invalid assembly"},
                   "401": {"description": "Missing or wrong bearer token"},
-                  "413": {"description": "Body or assembly too large"}},
+                  "413": {"description": "Body or assembly too large"},
+                  "503": {"description": "Reading or planning past the request's time budget"}},
 }
 
 
@@ -159,6 +163,7 @@ class PlanningApp:
             self.service.pool.ready(timeout_s=600)
         self._executor = ThreadPoolExecutor(self.config.max_concurrent,
                                             thread_name_prefix="plan")
+        self._readers = ThreadPoolExecutor(4, thread_name_prefix="read")
         self._flush_lock = threading.Lock()
         self._flushed = time.monotonic()
         self.served = 0
@@ -173,6 +178,17 @@ class PlanningApp:
             return _error(401, "missing or wrong bearer token (Authorization: Bearer <token>)",
                           {"WWW-Authenticate": "Bearer"})
         return None
+
+    def _read(self, body: bytes):
+        """``parse_plan_request`` with this service's limits (runs on a reader thread)."""
+        parsed = parse_plan_request(body, max_parts=self.config.max_parts,
+                                    max_optimal_parts=self.config.max_optimal_parts,
+                                    max_simulations=self.config.max_simulations,
+                                    max_vertices=self.config.max_vertices)
+        if parsed[1] in ("rap", "search") and self.service.cnn is None:
+            raise BadRequest(400, f"method {parsed[1]!r}: this service has no CNN model; ask for "
+                                  f"method sim")
+        return parsed
 
     def _plan(self, assembly, method: str, seed: int, options: dict):
         from rap.farm.service import PlanRequest
@@ -228,20 +244,23 @@ class PlanningApp:
                 break
         if size > limit:
             return _error(413, f"request body over {limit} bytes")
-        try:
-            assembly, method, seed, options = parse_plan_request(
-                bytes(body), max_parts=self.config.max_parts,
-                max_optimal_parts=self.config.max_optimal_parts,
-                max_simulations=self.config.max_simulations)
-            if method in ("rap", "search") and self.service.cnn is None:
-                raise BadRequest(400, f"method {method!r}: this service has no CNN model; ask "
-                                      f"for method sim")
+        loop = asyncio.get_running_loop()
+        try:  # reading and exact validation run off the event loop: /health keeps answering
+            assembly, method, seed, options = await asyncio.wait_for(
+                loop.run_in_executor(self._readers, self._read, bytes(body)),
+                timeout=self.config.parse_budget_s)
         except BadRequest as exc:
             return _error(exc.status, exc.message)
-        loop = asyncio.get_running_loop()
+        except asyncio.TimeoutError:
+            return _error(503, f"the assembly was not read and validated within "
+                               f"{self.config.parse_budget_s:g} s; send a smaller one")
         try:
-            result = await loop.run_in_executor(self._executor, self._plan, assembly, method, seed,
-                                                options)
+            result = await asyncio.wait_for(
+                loop.run_in_executor(self._executor, self._plan, assembly, method, seed, options),
+                timeout=self.config.plan_budget_s + self.config.answer_grace_s)
+        except asyncio.TimeoutError:
+            return _error(503, f"planning took longer than its budget of "
+                               f"{self.config.plan_budget_s:g} s; ask with fewer simulations")
         except RapError as exc:
             return _error(400 if isinstance(exc, InputError) else 500, str(exc))
         except Exception as exc:  # never a traceback to the client, never a dead replica

@@ -12,7 +12,9 @@ part_id, problem)`` for the first problem found, in this order:
 Preconditions checked by ``rap.assembly`` already: >= 3 distinct vertices per ring, nonzero area.
 Everything is integer arithmetic on the assembly scaled by the LCM of its denominators.
 
-Complexity: O(sum of q^2) for the ring checks (bounding-box prefiltered) and, for the overlap
+Complexity: O(sum of q^2) for the ring checks in the worst case (the spikes of a star, whose
+edges' boxes all meet), done in numpy with a float filter and an exact fallback
+(``rap.geometry.batch``: a 10,000-vertex star ring in about a second), and, for the overlap
 check, O(n^2) bounding-box tests plus O(k_a k_b (q_a + q_b)) separating-axis work for each pair of
 parts whose boxes overlap (k = convex pieces per part), i.e. O(n^2 q^2) in the worst case.
 """
@@ -21,7 +23,10 @@ from __future__ import annotations
 
 from typing import Sequence
 
+import numpy as np
+
 from rap.assembly import Assembly, AssemblyError
+from rap.geometry.batch import MAX_EXACT_FLOAT_INT, box_pairs, crossing_signs
 from rap.geometry.exact import IVec, IntAssembly, orient, to_integers
 from rap.geometry.triangulate import convex_pieces
 
@@ -52,16 +57,24 @@ def _bbox(ring):
 
 
 def ring_is_simple(ring: Sequence[IVec]) -> bool:
-    """True when the closed polyline has no self-intersection or self-touching (exact)."""
+    """True when the closed polyline has no self-intersection or self-touching (exact).
+
+    Rings of more than ``_BATCH_MIN`` vertices whose coordinates are exact floats are checked with
+    ``rap.geometry.batch`` (numpy sweep over the edges' boxes, a float filter, the exact integer
+    test for the pairs it cannot decide); others pair by pair. The same answer either way.
+    """
     n = len(ring)
+    for i in range(n):  # adjacent edges (i, i+1) share b: they must not fold back
+        a, b, c = ring[i], ring[(i + 1) % n], ring[(i + 2) % n]
+        if orient(a, b, c) == 0 and (b[0] - a[0]) * (c[0] - b[0]) + (b[1] - a[1]) * (c[1] - b[1]) < 0:
+            return False
+    limit = MAX_EXACT_FLOAT_INT // 2
+    if n > _BATCH_MIN and all(-limit < v < limit for p in ring for v in p):
+        return not _nonadjacent_edges_meet_batch(ring)
     edges = [(ring[i], ring[(i + 1) % n]) for i in range(n)]
     boxes = [(min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1])) for a, b in edges]
     for i in range(n):
         a, b = edges[i]
-        # adjacent edge (i, i+1) shares b: they must not fold back (collinear, reversing)
-        c = edges[(i + 1) % n][1]
-        if orient(a, b, c) == 0 and (b[0] - a[0]) * (c[0] - b[0]) + (b[1] - a[1]) * (c[1] - b[1]) < 0:
-            return False
         x0, y0, x1, y1 = boxes[i]
         for j in range(i + 2, n):
             if i == 0 and j == n - 1:
@@ -72,6 +85,29 @@ def ring_is_simple(ring: Sequence[IVec]) -> bool:
             if segments_intersect(a, b, *edges[j]):
                 return False
     return True
+
+
+_BATCH_MIN = 48  # below this many vertices, numpy's call overhead exceeds the pairwise loop
+
+
+def _nonadjacent_edges_meet_batch(ring: Sequence[IVec]) -> bool:
+    """Whether two non-adjacent edges of the ring share a point (see ``ring_is_simple``)."""
+    n = len(ring)
+    pts = np.array(ring, dtype=np.float64)  # exact: |v| < 2^52
+    nxt = np.roll(pts, -1, axis=0)
+    boxes = np.column_stack([np.minimum(pts[:, 0], nxt[:, 0]), np.minimum(pts[:, 1], nxt[:, 1]),
+                             np.maximum(pts[:, 0], nxt[:, 0]), np.maximum(pts[:, 1], nxt[:, 1])])
+    for i, j in box_pairs(boxes):
+        gap = np.abs(i - j)
+        keep = (gap != 1) & (gap != n - 1)  # adjacent edges share their vertex by definition
+        i, j = i[keep], j[keep]
+        crossing, undecided = crossing_signs(pts[i], nxt[i], pts[j], nxt[j])
+        if crossing.any():
+            return True
+        for a, b in zip(i[undecided].tolist(), j[undecided].tolist()):
+            if segments_intersect(ring[a], ring[(a + 1) % n], ring[b], ring[(b + 1) % n]):
+                return True
+    return False
 
 
 def point_in_ring(p: Sequence[int], ring: Sequence[IVec]) -> int:

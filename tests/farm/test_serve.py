@@ -2,7 +2,9 @@
 
 Plans over HTTP checked by the swept-area plan checker and against in-process plans, 16 concurrent
 requests, malformed and invalid requests (4xx, one line, the service keeps answering), an
-interlocked assembly (``"feasible": false``), bearer-token authentication and ``plan --server``.
+interlocked assembly (``"feasible": false``), bearer-token authentication and ``plan --server``;
+hostile numbers refused at once while ``/health`` keeps answering, and fuzzed bodies
+(tests/fuzz.py, ``RAP_FUZZ_REQUESTS`` of them, default 150) that never get a 5xx.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 import urllib.error
 import urllib.request
@@ -22,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
 
 from rap.assembly import AssemblyError, assembly_to_json
 from rap.io import load_assembly
@@ -29,6 +33,7 @@ from rap.plan.result import PlanResult
 from rap.plan.validate import check_plan
 
 from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
+from tests.fuzz import plan_bodies
 
 pytestmark = [pytest.mark.ray, pytest.mark.slow]
 
@@ -221,6 +226,48 @@ def test_invalid_assemblies_get_the_cli_message(service, path):
     if "not valid JSON" not in str(cli.value):  # syntax errors name other positions
         where = f"part {cli.value.part!r}: " if cli.value.part is not None else ""
         assert doc["error"] == f"assembly: {where}{cli.value.problem}"
+
+
+TANGRAM = ROOT / "assemblies" / "unseen" / "tangram.json"
+FUZZ_REQUESTS = int(os.environ.get("RAP_FUZZ_REQUESTS", "150"))
+
+
+def test_a_tiny_hostile_file_is_refused_at_once_while_health_answers(service):
+    tiny = TANGRAM.read_text().replace("[0,0]", "[1e-1000000,0]", 1)  # a few hundred bytes
+    huge = TANGRAM.read_text().replace("[0,0]", "[1e10000000,0]", 1)
+    stop, health = threading.Event(), []
+
+    def poll():  # the harness's bound: each /health answer within 5 s, else the call raises
+        while not stop.is_set():
+            health.append(_call(service, "/health", timeout=5)[0])
+            time.sleep(0.05)
+
+    poller = ThreadPoolExecutor(1)
+    polling = poller.submit(poll)
+    try:
+        for text, needle in ((tiny, "more than 6 digits after the point"),
+                             (huge, "out of range (|x| <= 10^9)")):
+            for _ in range(3):
+                status, doc, _ = _call(service, "/plan", _body(text), timeout=10)
+                assert status == 400 and needle in doc["error"], doc
+                assert doc["error"].startswith("assembly: part 'large-a': coordinate 1E")
+    finally:
+        stop.set()
+        polling.result(timeout=30)
+        poller.shutdown()
+    assert health and set(health) == {200}
+
+
+@settings(max_examples=FUZZ_REQUESTS, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(body=plan_bodies())
+def test_fuzzed_requests_get_a_4xx_or_a_plan_never_a_5xx(service, body):
+    status, doc, _ = _call(service, "/plan", body, method="POST", timeout=120)
+    assert status in (200, 400, 413), (status, doc)
+    if status == 200:
+        assert doc["feasible"] in (True, False, None) and doc["assembly"]
+    else:
+        assert list(doc) == ["error"] and "\n" not in doc["error"] and doc["error"]
 
 
 def test_authentication_and_other_routes(service):

@@ -68,8 +68,11 @@ def test_fixtures_are_valid(asm):
 def test_decimal_boundaries_stay_touching():
     asm = decimals()  # 0.1 + 0.2 == 0.3 exactly: touching, not overlapping
     validate_assembly(asm)
-    with pytest.raises(AssemblyError, match="overlaps"):
-        x = Decimal(repr(0.1 + 0.2))  # the float sum, 0.30000000000000004
+    # the float sum 0.30000000000000004 is off the input grid (6 decimals): refused on reading,
+    # naming the number, before it could overlap the neighbour by 4e-17
+    with pytest.raises(AssemblyError, match=r"part 'a': coordinate 0\.30000000000000004 has more "
+                                            r"than 6 digits after the point"):
+        x = Decimal(repr(0.1 + 0.2))
         three = Decimal("0.3")
         parse_assembly({"parts": [{"id": "a", "polygon": [[0, 0], [x, 0], [three, 1], [0, 1]]},
                                   {"id": "b", "polygon": [[three, 0], [1, 0], [1, 1], [three, 1]]}]})
