@@ -251,11 +251,26 @@ def test_a_tiny_hostile_file_is_refused_at_once_while_health_answers(service):
                 status, doc, _ = _call(service, "/plan", _body(text), timeout=10)
                 assert status == 400 and needle in doc["error"], doc
                 assert doc["error"].startswith("assembly: part 'large-a': coordinate 1E")
+        # a valid request at the worst case of validation (a 10,000-vertex star, seconds of exact
+        # work on a reader thread): planned or 503 past the read budget, never a blocked loop
+        before = len(health)
+        status, doc, _ = _call(service, "/plan", _body(_star(10_000), method="sim"), timeout=60)
+        assert status in (200, 503), doc
+        assert len(health) > before  # /health was answered while the star was validated
     finally:
         stop.set()
         polling.result(timeout=30)
         poller.shutdown()
     assert health and set(health) == {200}
+
+
+def _star(q: int) -> dict:
+    import math
+
+    pts = [[round((10**8 if k % 2 == 0 else 10**5) * math.cos(2 * math.pi * k / q)),
+            round((10**8 if k % 2 == 0 else 10**5) * math.sin(2 * math.pi * k / q))]
+           for k in range(q)]
+    return {"name": "star", "parts": [{"id": "star", "polygon": pts}]}
 
 
 @settings(max_examples=FUZZ_REQUESTS, deadline=None, derandomize=True,
