@@ -31,6 +31,9 @@ def score_command(
 
     if by not in ("assembly", "family"):
         raise InputError(f"--by {by!r}: assembly or family")
+    from rap.commands.check import warn_duplicates
+
+    warn_duplicates(dataset)  # each key is scored once
     rows = score_checkpoint(model, dataset, by=by, device=device, only=only or None, mirror=mirror)
     if not rows:
         raise InputError(f"{dataset}: no rows" + (f" of {', '.join(only)}" if only else ""))

@@ -123,6 +123,9 @@ def train_command(
                                    lr=lr, schedule=schedule, max_rows=max_rows, view=view,
                                    channels=channels, hidden=hidden, val_by=val_by,
                                    descriptors=descriptors)
+    from rap.commands.check import warn_duplicates
+
+    warn_duplicates(dataset)  # each key is one training row
     state = resume_path(out)
     if not resume:
         state.unlink(missing_ok=True)

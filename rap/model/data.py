@@ -12,7 +12,9 @@ once, so that many folds (cross-validation, ablations) select rows by index with
 shards again.
 
 Rows are selected by assembly and by family (``Selection``); schema-1 rows, which have no family,
-count as family ``custom``.
+count as family ``custom``. A key stored more than once (``rap.dataset.duplicate_keys``) is one
+row everywhere here: its first, by shard path and then row; a shard that does not read raises
+``rap.dataset.CorruptShardError`` (one line naming it).
 
 Labels: 1 ("high") when ``score >= threshold``, else 0; the threshold is a parameter, stored in the
 checkpoint, never a literal here.
@@ -30,7 +32,8 @@ import numpy as np
 import pyarrow.compute as pc
 import pyarrow.dataset as pads
 
-from rap.dataset import IMAGE_BYTES, SCHEMA, decode_images, iter_batches, open_dataset, read_meta
+from rap.dataset import (IMAGE_BYTES, count_rows, decode_images, duplicate_keys, iter_batches,
+                         iter_shard_batches, open_dataset, read_meta, read_table)
 from rap.errors import InputError
 
 __all__ = ["Selection", "select", "labels_of", "data_fingerprint", "assembly_summary",
@@ -38,6 +41,7 @@ __all__ = ["Selection", "select", "labels_of", "data_fingerprint", "assembly_sum
            "RowStore", "LABEL_COLUMNS"]
 
 LABEL_COLUMNS = ("score", "successes", "trials", "image")
+_SHARD_BATCH_ROWS = 1 << 17  # pyarrow's default: the streamed epochs' order as before
 
 
 @dataclass(frozen=True)
@@ -70,7 +74,7 @@ class Selection:
         return expr
 
     def count(self) -> int:
-        return open_dataset(self.root).count_rows(filter=self.filter)
+        return count_rows(self.root, filter=self.filter, unique=True)
 
 
 def select(root: str | Path, *, include=None, exclude=(), families=None,
@@ -86,7 +90,7 @@ def labels_of(scores: np.ndarray, threshold: float) -> np.ndarray:
 
 def data_fingerprint(sel: Selection) -> str:
     """Hex SHA-256 of the selected rows' sorted content keys plus the dataset metadata."""
-    keys = open_dataset(sel.root).to_table(columns=["key"], filter=sel.filter).column("key")
+    keys = read_table(sel.root, columns=["key"], filter=sel.filter, unique=True).column("key")
     h = hashlib.sha256()
     meta = read_meta(sel.root)
     h.update(json.dumps(meta.__dict__ if meta else None, sort_keys=True).encode())
@@ -98,8 +102,8 @@ def data_fingerprint(sel: Selection) -> str:
 
 def assembly_summary(sel: Selection, threshold: float) -> list[dict]:
     """Per assembly in the selection: name, geometry hash(es), rows, fraction of high rows."""
-    t = open_dataset(sel.root).to_table(columns=["assembly", "geometry_hash", "score"],
-                                        filter=sel.filter).to_pandas()
+    t = read_table(sel.root, columns=["assembly", "geometry_hash", "score"], filter=sel.filter,
+                   unique=True).to_pandas()
     out = []
     for name, g in t.groupby("assembly", sort=True):
         hashes = sorted(set(g["geometry_hash"]))
@@ -115,7 +119,7 @@ def iter_rows(sel: Selection, batch_size: int = 256,
     selection, in dataset order; by default (images, scores)."""
     others = [c for c in columns if c != "image"]
     for rb in iter_batches(sel.root, columns=[*others, "image"], batch_size=batch_size,
-                           filter=sel.filter):
+                           filter=sel.filter, unique=True):
         if rb.num_rows:
             yield (decode_images(rb.column("image")), *(rb.column(c).to_numpy() for c in others))
 
@@ -164,7 +168,8 @@ class InMemoryBatches:
         self.trials = np.empty(n, dtype=np.int64)
         keys = np.empty(n, dtype=object)
         i = 0
-        for rb in iter_batches(sel.root, columns=[*LABEL_COLUMNS, "key"], filter=sel.filter):
+        for rb in iter_batches(sel.root, columns=[*LABEL_COLUMNS, "key"], filter=sel.filter,
+                               unique=True):
             k = rb.num_rows
             if not k:
                 continue
@@ -225,7 +230,8 @@ class StreamingBatches:
         self.batch_size = batch_size
         self.buffer_rows = max(buffer_rows, batch_size)
         self.files = sorted(open_dataset(sel.root).files)
-        t = open_dataset(sel.root).to_table(columns=["score", "trials"], filter=sel.filter)
+        self.duplicates = duplicate_keys(sel.root)
+        t = read_table(sel.root, columns=["score", "trials"], filter=sel.filter, unique=True)
         self.labels_all = labels_of(t.column("score").to_numpy(), threshold)
         self.trials = t.column("trials").to_numpy().astype(np.int64)
         self.index = None
@@ -253,8 +259,8 @@ class StreamingBatches:
             return [[c[rest]] for c in cat], len(rest)
 
         for f in rng.permutation(len(self.files)):
-            ds = pads.dataset(self.files[f], schema=SCHEMA, format="parquet")
-            for rb in ds.to_batches(columns=list(LABEL_COLUMNS), filter=self.sel.filter):
+            for rb in iter_shard_batches(self.files[f], list(LABEL_COLUMNS), _SHARD_BATCH_ROWS,
+                                         self.sel.filter, self.duplicates, self.sel.root):
                 if not rb.num_rows:
                     continue
                 parts[0].append(decode_images(rb.column("image")).copy())
@@ -296,9 +302,9 @@ class RowStore:
         if order not in ("key", "dataset"):
             raise ValueError(f"order {order!r}: key or dataset")
         self.root = str(Path(root).resolve())
-        t = open_dataset(self.root).to_table(
-            columns=["key", "assembly", "geometry_hash", "family", "score", "successes", "trials",
-                     "moving", "fixed", "direction_x", "direction_y", "image"])
+        t = read_table(self.root, unique=True, columns=[
+            "key", "assembly", "geometry_hash", "family", "score", "successes", "trials", "moving",
+            "fixed", "direction_x", "direction_y", "image"])
         # rows in key order, not in the order the farm's workers happened to commit shards, so
         # that seeded training is the same for the same rows
         keys = np.array(t.column("key").to_pylist(), dtype=object)

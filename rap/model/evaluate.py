@@ -248,8 +248,9 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
     """Metrics of an existing checkpoint on a dataset, without training: one row per assembly
     (``by="assembly"``) or per family (``by="family"``) plus an ``all`` row; ``only`` keeps the
     rows of those assemblies (families); ``mirror`` averages the outputs over each pair and its
-    mirror image (``rap.model.predict.Predictor``). Streams the dataset (O(batch) memory besides
-    the per-row labels and probabilities)."""
+    mirror image (``rap.model.predict.Predictor``). A key stored more than once counts once (its
+    first row: ``rap.dataset.duplicate_keys``). Streams the dataset (O(batch) memory besides the
+    per-row labels and probabilities)."""
     from rap.dataset import decode_images, iter_batches
     from rap.model.predict import Predictor
 
@@ -273,7 +274,7 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
 
         geometry = DatasetGeometry(root)
         columns += operation_columns
-    for rb in iter_batches(root, columns=columns, batch_size=batch_size, filter=keep):
+    for rb in iter_batches(root, columns=columns, batch_size=batch_size, filter=keep, unique=True):
         if not rb.num_rows:
             continue
         g = rb.column(by).to_pylist()

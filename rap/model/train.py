@@ -34,7 +34,7 @@ import numpy as np
 import torch
 
 from rap import __version__
-from rap.dataset import open_dataset
+from rap.dataset import count_rows, read_table
 from rap.errors import InputError
 from rap.model import heads
 from rap.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
@@ -113,13 +113,13 @@ class TrainResult:
 
 def dataset_assemblies(root: str | Path) -> list[str]:
     """Sorted names of the assemblies present in a dataset."""
-    col = open_dataset(root).to_table(columns=["assembly"]).column("assembly")
+    col = read_table(root, columns=["assembly"]).column("assembly")
     return sorted(set(col.unique().to_pylist()))
 
 
 def dataset_families(root: str | Path) -> dict[str, list[str]]:
     """Family -> sorted assembly names (``custom`` for rows without a family)."""
-    t = open_dataset(root).to_table(columns=["assembly", "family"])
+    t = read_table(root, columns=["assembly", "family"])
     out: dict[str, set] = {}
     for a, f in zip(t.column("assembly").to_pylist(), t.column("family").to_pylist()):
         out.setdefault(f or "custom", set()).add(a)
@@ -423,7 +423,7 @@ def corpus_version(root: str | Path, fingerprint: str) -> dict:
     """What a model was trained on, for its checkpoint: the dataset's directory name, rows, root
     seed, simulator parameters' fingerprint, the labelling code's version and the training rows'
     fingerprint (hex SHA-256 of their sorted keys and the dataset metadata)."""
-    from rap.dataset import open_dataset, read_meta
+    from rap.dataset import read_meta
 
     meta = read_meta(root)
     params_fp = None
@@ -434,7 +434,7 @@ def corpus_version(root: str | Path, fingerprint: str) -> dict:
             params_fp = SimParams.from_dict(dict(meta.params)).fingerprint()
         except (TypeError, ValueError):
             params_fp = None
-    return {"name": Path(root).name, "rows": open_dataset(root).count_rows(),
+    return {"name": Path(root).name, "rows": count_rows(root, unique=True),
             "root_seed": meta.root_seed if meta else None, "params_fingerprint": params_fp,
             "labelled_by": meta.code_version if meta else None,
             "schema_version": meta.schema_version if meta else None,

@@ -172,3 +172,51 @@ def test_train_logs_a_line_per_epoch_when_not_on_a_terminal(tiny_dataset, tmp_pa
     assert [ln.split(":")[0] for ln in lines] == ["train epoch 1/2", "train epoch 2/2"]
     assert all("loss" in ln and "accuracy" in ln for ln in lines)
     assert "━" not in res.output  # no bar drawn into a log
+
+
+def _copy(dataset, tmp_path):
+    import shutil
+
+    return shutil.copytree(dataset, tmp_path / "copy")
+
+
+def test_score_and_train_count_each_duplicated_key_once_and_say_so(tiny_dataset, tmp_path, capsys):
+    """Two shards written again (as two concurrent writers did before the lock): one warning line,
+    and every key is one row."""
+    import json
+
+    from rap.dataset import shard_files
+
+    ds = _copy(tiny_dataset, tmp_path)
+    again = [p for p in shard_files(ds) if p.parent.name == "alpha"]
+    for p in again:
+        p.with_name(p.stem + "-again.parquet").write_bytes(p.read_bytes())
+    model = tmp_path / "m.pt"
+    main(["train", str(ds), "--out", str(model), "--epochs", "1", "--device", "cpu"])  # exit 0
+    err = capsys.readouterr().err
+    warning = (f"rap-farm: warning: {ds}: 48 duplicate rows (48 keys stored more than once); each "
+               f"key's first row (by shard path, then row) is used")
+    assert warning in err.splitlines()
+    assert Predictor.load(model).training["corpus"]["rows"] == 144
+    main(["score", str(model), str(ds), "--out", str(tmp_path / "s")])
+    assert warning in capsys.readouterr().err.splitlines()
+    assert json.loads((tmp_path / "s" / "score.json").read_text())["rows"][-1]["rows"] == 144
+
+
+@pytest.mark.parametrize("command", ["train", "score"])
+def test_a_corrupt_shard_is_one_line_naming_it_with_status_2(command, tiny_dataset, tmp_path,
+                                                               capsys):
+    from rap.dataset import shard_files
+
+    ds = _copy(tiny_dataset, tmp_path)
+    bad = shard_files(ds)[2]
+    bad.write_bytes(bad.read_bytes()[:-100])  # truncated
+    argv = (["train", str(ds), "--out", str(tmp_path / "m.pt"), "--epochs", "1"]
+            if command == "train" else ["score", "rap/data/default_model.pt", str(ds)])
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    err = capsys.readouterr().err.strip()
+    assert exc.value.code == 2 and "\n" not in err
+    assert err.startswith(f"rap-farm: error: {bad}: corrupt shard (")
+    assert f"rap-farm check {ds} --quarantine" in err
+    assert not (tmp_path / "m.pt").exists()

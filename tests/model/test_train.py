@@ -196,3 +196,54 @@ def test_a_file_that_is_not_a_state_is_one_input_error(tiny_dataset, tmp_path):
     state.write_text("not a state")
     with pytest.raises(InputError, match="not a training state"):
         train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN, resume=state)
+
+
+def _with_copies(tmp_path, name, rows, copies, prefix):
+    """A dataset of ``rows`` plus ``copies`` (rows with keys already there) in shards renamed
+    ``part-<prefix>…``: the copies' shards sort before the others' (``-``) or after them (``z``)."""
+    from rap.dataset import DatasetMeta, SCHEMA_VERSION, rows_to_table, write_meta, write_shard
+
+    root = tmp_path / name
+    write_meta(root, DatasetMeta(schema_version=SCHEMA_VERSION, root_seed=0,
+                                 params={"trials": 100}, command="test"))
+    for part in (rows[:60], rows[60:]):
+        write_shard(root, rows_to_table(part))
+    if copies:
+        for f in write_shard(root, rows_to_table(copies)):
+            f.rename(f.with_name(f"part-{prefix}{f.name[5:]}"))
+    return root
+
+
+def test_duplicated_keys_are_each_one_row_the_first_by_shard_path(tmp_path):
+    """Keys stored twice (two writers before the lock) are one row each, the first by shard path
+    then row, whichever reader: the clean dataset's rows, fingerprint and model when the clean
+    rows come first, the copies' scores when the copies do."""
+    from model_fixtures import synthetic_rows
+    from rap.dataset import duplicate_keys, read_table
+    from rap.model.data import RowStore, data_fingerprint
+
+    rows = [r for k, n in enumerate(("alpha", "beta", "gamma")) for r in synthetic_rows(n, 40, k)]
+    copies = [dict(r, score=0.0, successes=0) for r in rows[::3]]  # a wrong pick shows
+    clean = _with_copies(tmp_path, "clean", rows, [], "")
+    last = _with_copies(tmp_path, "last", rows, copies, "z")
+    first = _with_copies(tmp_path, "first", rows, copies, "-")
+    scores = {r["key"]: r["score"] for r in rows}
+    copied = {r["key"] for r in copies}
+    for root, want in ((last, scores),
+                       (first, {k: 0.0 if k in copied else v for k, v in scores.items()})):
+        assert duplicate_keys(root).rows == len(copies) == 40
+        kept = read_table(root, ["key", "score"], unique=True)
+        assert dict(zip(kept["key"].to_pylist(), kept["score"].to_pylist())) == want
+        store = RowStore(root)
+        assert len(store) == 120 and dict(zip(store.keys.tolist(), store.scores.tolist())) == want
+        assert select(root).count() == 120
+        for mb in (100, 0.2):  # in memory, streamed
+            batches = make_batches(select(root), 0.95, 10, max_memory_mb=mb)
+            got = sorted(int(x) for b in batches.epoch(np.random.default_rng(0)) for x in b[2])
+            assert got == sorted(int(round(s * 100)) for s in want.values())
+    assert data_fingerprint(select(last)) == data_fingerprint(select(clean))
+    cfg = replace(FAST_TRAIN, max_memory_mb=2048.0)
+    trained = train(last, model_config=TINY_MODEL, config=cfg)
+    assert trained.metrics["train"]["rows"] == 120 and trained.training["corpus"]["rows"] == 120
+    a = _weights(train(clean, model_config=TINY_MODEL, config=cfg))
+    assert all(torch.equal(a[k], v) for k, v in _weights(trained).items())
