@@ -38,7 +38,7 @@ from typing import Callable, Iterator
 from rap.dataset import (SCHEMA_VERSION, DatasetMeta, clean_partial_files, rows_to_table, write_geometry,
                          write_meta, write_shard)
 
-from rap.farm.pool import Job, SimPool
+from rap.farm.pool import IDLE_TIMEOUT_S, Job, SimPool
 from rap.farm.runtime import connect
 from rap.farm.selection import HIST_BINS, LabelConfig, LabelPlan, LabelSummary, iter_jobs, prepare
 
@@ -165,11 +165,14 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
 
     with _sigterm_as_interrupt(), connect(cfg.address, num_cpus=cfg.num_cpus) as rt:
         commit_meta()  # only once Ray is up: a failed connection leaves nothing behind
-        pool = SimPool(cfg.workers or rt.cpus, backend=cfg.backend, batch_size=cfg.batch_size)
+        # elastic: up to --workers actors (default: every CPU, growing as CPUs join), labelling as
+        # soon as one runs; idle ones are released so an autoscaler can remove their nodes
+        pool = SimPool(cfg.workers, backend=cfg.backend, batch_size=cfg.batch_size,
+                       idle_timeout_s=IDLE_TIMEOUT_S, stall_timeout_s=cfg.start_timeout_s)
         summary.workers = pool.size
         progress = _progress(cfg.progress, plan.total)
         try:
-            pool.ready(cfg.start_timeout_s)
+            pool.ready(cfg.start_timeout_s, at_least=1)
             summary.startup_s = time.perf_counter() - t0
             t0 = time.perf_counter()  # the rate counts labelling time only
             with progress:
@@ -204,6 +207,7 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
                 flush()  # commit what has arrived, also when interrupted
             finally:
                 summary.seconds = time.perf_counter() - t0
+                summary.workers = max(1, pool.stats["peak_workers"])
                 summary.resubmitted = pool.stats["resubmitted"]
                 summary.sim_s = pool.stats["sim_s"]
                 summary.task_s = pool.stats["task_s"]
@@ -226,8 +230,11 @@ def format_summary(s: LabelSummary) -> str:
     ]
     if s.per_assembly:
         lines.append("assemblies   " + ", ".join(f"{k} {v}" for k, v in sorted(s.per_assembly.items())))
-    if s.nodes:
-        lines.append("nodes        " + ", ".join(f"{k} {v}" for k, v in sorted(s.nodes.items())))
+    if len(s.nodes) == 1:
+        lines.append("nodes        " + " ".join(f"{k} {v}" for k, v in s.nodes.items()))
+    elif s.nodes:  # one line each: a node is hostname/<the whole Ray node id>
+        lines.append(f"nodes        {len(s.nodes)}, rows per node:")
+        lines += [f"  {v:8d}  {k}" for k, v in sorted(s.nodes.items())]
     if s.first_shard_s is not None:
         lines.append(f"first shard  committed {s.first_shard_s:.1f} s after the start")
     if s.peak_rss_mib:

@@ -44,14 +44,15 @@ def cluster_cpus() -> int:
 
 
 def node_label() -> str:
-    """Which node this process runs on: ``hostname/<node id prefix>`` (distinct per Ray node, even
-    for two nodes on one machine)."""
+    """Which node this process runs on: ``hostname/<Ray node id>``, the whole hex id, which is
+    unique per node of a cluster (a prefix is not: Ray's fake multi-node provider, for one, numbers
+    its nodes in the last digits, ``fff...f00001``), also for several nodes on one machine."""
     try:
         nid = ray.get_runtime_context().get_node_id() or ""
     except Exception:  # not inside Ray
         nid = ""
     host = socket.gethostname()
-    return f"{host}/{nid[:12]}" if nid else host
+    return f"{host}/{nid}" if nid else host
 
 
 @contextlib.contextmanager

@@ -202,12 +202,13 @@ def test_cli_label_prints_summary_and_resumes(ray_local, standin_enum, monkeypat
     from rap.farm.pool import SimPool
 
     ready, waits = SimPool.ready, []
-    monkeypatch.setattr(SimPool, "ready", lambda self, t=120.0: waits.append(t) or ready(self, t))
+    monkeypatch.setattr(SimPool, "ready",
+                        lambda self, t=120.0, **kw: waits.append((t, kw)) or ready(self, t, **kw))
     out = tmp_path / "cli"
     argv = ["label", TWO[0], "--out", str(out), "--preset", "tiny", "--max-ops-per-assembly", "5",
             "--trials", "2", "--quiet", "--start-timeout", "90"]
     main(argv)
-    assert waits == [90.0]  # --start-timeout reaches the pool
+    assert waits == [(90.0, {"at_least": 1})]  # --start-timeout: until one worker runs
     cap = capsys.readouterr()
     assert "5 operations selected in 1 assemblies (0 rows already in" in cap.err
     assert "5 labelled now" in cap.out and "score histogram" in cap.out and "ops/s" in cap.out

@@ -62,7 +62,8 @@ def two_nodes():
     tmp = tempfile.mkdtemp(prefix="rf2n-", dir="/tmp")  # short: Ray's socket paths are limited
     port = free_port()
     address = f"127.0.0.1:{port}"
-    env = ray_env()
+    # the workers label with fake_cluster.GATED: their first operation waits for both nodes' actors
+    env = dict(ray_env(), RAP_TEST_GATE_NODES="2", RAP_TEST_GATE_FILE=os.path.join(tmp, "gate"))
     common = ["--num-cpus", "1", "--node-ip-address", "127.0.0.1", "--block",
               "--disable-usage-stats", "--temp-dir", tmp]
     procs = []
@@ -90,7 +91,7 @@ def two_nodes():
 def test_label_through_address_on_two_nodes(two_nodes, tmp_path):
     address, env = two_nodes
     out = tmp_path / "ds"
-    cmd = [sys.executable, str(ROOT / "tests" / "farm" / "cli_standins.py"), "label",
+    cmd = [sys.executable, str(ROOT / "tests" / "farm" / "fake_cluster.py"), "label",
            str(ASSEMBLIES / "grid.json"), str(ASSEMBLIES / "hexagon.json"), "--out", str(out),
            "--address", address, "--workers", "2", "--trials", "3", "--max-ops-per-assembly", "8",
            "--quiet", "--flush-rows", "4"]
