@@ -12,10 +12,14 @@
   there), without materialising the space. The stream is a deterministic function of the seed, so
   its first K operations are "the sample of K": growing K only adds operations, and a resumed run
   selects exactly what an uninterrupted one did. It ends when ``patience`` trees in a row bring
-  nothing new (the space is exhausted or nearly so).
+  nothing new: the space is exhausted, or what is left of it lies in subassemblies that random
+  trees reach rarely (with the default root seed, ``assemblies/grid.json`` stops at 383 of its
+  1,188 operations and ``assemblies/unseen/pentomino-6x10.json`` at 1,134 of 20,796; with more
+  patience new ones keep coming, ever more slowly: 3,844 of the pentomino's after 150 s).
 * ``select_operations(assembly, limit, ...)`` decides: no limit -> every operation (refused with
   ``TooManyOperations`` past the budget); a limit at least the size of the space -> every
-  operation; otherwise the first ``limit`` operations of the sampled stream.
+  operation; otherwise the first ``limit`` operations of the sampled stream. A selection whose
+  stream ends before its total says why (``Selection.shortfall`` -> ``Shortfall``).
 
 ``label_key`` / ``label_seed`` define a row's identity in the dataset: the operation's content key
 (geometry + operation + simulator parameters) combined with the run's root seed, and the
@@ -42,6 +46,7 @@ __all__ = [
     "LABEL_BUDGET",
     "TooManyOperations",
     "Selection",
+    "Shortfall",
     "select_operations",
     "iter_operations",
     "iter_sampled_operations",
@@ -171,13 +176,30 @@ def iter_sampled_operations(assembly: Assembly, mode: str = "all", directions_pe
 
 
 @dataclass(frozen=True)
+class Shortfall:
+    """A selection whose stream ended before its total: ``selected`` of ``asked`` operations,
+    ``space`` the size of the whole operation space (None: more than ``LABEL_BUDGET``) and why."""
+
+    selected: int
+    asked: int
+    space: int | None
+    reason: str
+
+    def describe(self) -> str:
+        space = (f"a space of {self.space:,}" if self.space is not None
+                 else f"a space of more than {LABEL_BUDGET:,}")
+        return f"{self.selected:,} of {self.asked:,} operations asked ({space}): {self.reason}"
+
+
+@dataclass(frozen=True)
 class Selection:
     """The operations of one assembly that a label run takes, as a re-iterable lazy stream.
 
     ``how`` is ``"all"`` (every operation; ``size`` is their number) or ``"sampled"`` (the first
     ``limit`` of the seeded stream; ``size`` is None when the space was not counted to the end).
-    ``total`` is what the run expects to label (the stream may end early if the space is smaller
-    than it looked).
+    ``total`` is what the run expects to label (the stream may end early: ``shortfall``).
+    ``mode``, ``directions_per_range`` and ``patience`` are the stream's (to count the space and
+    say why it ended).
     """
 
     assembly: Assembly
@@ -185,6 +207,9 @@ class Selection:
     total: int
     size: int | None
     stream: Callable[[], Iterator[Operation]]
+    mode: str = "all"
+    directions_per_range: int = 1
+    patience: int = _PATIENCE
 
     def __iter__(self) -> Iterator[Operation]:
         n = 0
@@ -199,6 +224,25 @@ class Selection:
             return f"all {self.total}"
         space = f"of {self.size}" if self.size is not None else "of a larger space"
         return f"a seeded sample of {self.total} {space}"
+
+    def shortfall(self, selected: int, budget: int = LABEL_BUDGET) -> Shortfall | None:
+        """None when the stream gave ``total`` operations; else what it could not reach and why.
+        A sampled stream ends after ``patience`` random disassembly trees in a row that brought
+        nothing new; the space is counted (at most ``budget`` partitions of integer work, about
+        1 s for 20,000 operations) to say how much of it there is."""
+        if selected >= self.total:
+            return None
+        if self.how != "sampled":
+            return Shortfall(selected, self.total, self.size,
+                             "the space holds fewer distinct operations than were counted")
+        # sampled only when the space is larger than the total: what is left of it is there
+        space = count_operations(self.assembly, self.mode, self.directions_per_range, budget=budget)
+        why = (f"the sampler stopped after {self.patience} random disassembly trees in a row "
+               f"brought no new operation; the rest of the space lies in subassemblies its trees "
+               f"reach rarely")
+        if space is not None:
+            why += f" (--max-ops-per-assembly 0 labels all {space:,})"
+        return Shortfall(selected, self.total, space, why)
 
 
 def select_operations(assembly: Assembly, limit: int | None, root_seed: int, mode: str = "all",
@@ -221,10 +265,13 @@ def select_operations(assembly: Assembly, limit: int | None, root_seed: int, mod
                 f"{assembly.source or assembly.name}: more than {budget:,} operations "
                 f"(counting stopped there); label a seeded sample with --max-ops-per-assembly K")
         return Selection(assembly, "all", size, size,
-                         lambda: iter_operations(assembly, mode, directions_per_range, root_seed))
+                         lambda: iter_operations(assembly, mode, directions_per_range, root_seed),
+                         mode, directions_per_range)
     if size is not None and size <= limit:
         return Selection(assembly, "all", size, size,
-                         lambda: iter_operations(assembly, mode, directions_per_range, root_seed))
+                         lambda: iter_operations(assembly, mode, directions_per_range, root_seed),
+                         mode, directions_per_range)
     return Selection(assembly, "sampled", limit, None,
                      lambda: iter_sampled_operations(assembly, mode, directions_per_range,
-                                                     root_seed))
+                                                     root_seed),
+                     mode, directions_per_range)

@@ -27,6 +27,7 @@ def test_burst_rows_are_the_farms(tmp_path):
     plan = prepare(cfg)
     summary = LabelSummary(out=str(out))
     assert list(iter_jobs(plan, summary, lambda k: None)) == [] and summary.existing == 6
+    plan.release()  # the plan holds the dataset's one-writer lock until then
     # ... and a second burst adds nothing
     again = subprocess.run(args, capture_output=True, text=True, timeout=300)
     assert again.returncode == 0 and "labelled 0 rows" in again.stdout

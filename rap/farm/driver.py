@@ -2,9 +2,11 @@
 
 ``run_label(LabelConfig(...))``:
 
-1. checks every input before any work (assembly files and geometry, options, the output directory
-   and, when it already holds a dataset, that it was written with the same root seed, simulator
-   parameters and assembly geometry) and decides per assembly which operations it takes
+1. takes the dataset's one-writer lock (``rap.dataset.lock_dataset``: a second run on the same
+   ``--out`` is refused at once, exit 3, naming the holder's pid and host), checks every input
+   before any work (assembly files and geometry, options, the output directory and, when it
+   already holds a dataset, that it was written with the same root seed, simulator parameters and
+   assembly geometry, and that its shards read) and decides per assembly which operations it takes
    (``rap.enumerate.select_operations``: every operation, refused at once past the budget when
    uncapped, or a seeded sample of ``max_ops_per_assembly`` drawn lazily); raises ``InputError``
    with one line otherwise; nothing existing is modified when a check fails;
@@ -18,7 +20,14 @@
    ``flush_seconds`` seconds;
 4. isolates failures: an assembly whose enumeration or simulation fails is named in
    ``LabelSummary.failed`` and skipped from then on; what was committed (for it and for every other
-   assembly) stays, and the others are labelled to the end.
+   assembly) stays, and the others are labelled to the end;
+5. releases the lock after the last commit (or on any error; a killed run's lock goes with its
+   process). A write that fails (disk full) raises ``rap.errors.StorageError`` (exit 3) naming the
+   path; no temporary file is left and every committed shard stays.
+
+The summary (``format_summary``) says which assemblies' samples stopped short of
+``max_ops_per_assembly`` and why (``LabelSummary.short``), and how many rows of the dataset repeat
+a key (written by two runs before the lock existed; readers keep each key's first row).
 
 An interruption (Ctrl-C, SIGTERM from ``ray job stop``) commits the rows already received and
 re-raises; SIGKILL loses at most the rows of the last ``flush_rows``/``flush_seconds``. A rerun of the
@@ -120,9 +129,18 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
               on_batch: Callable[[LabelSummary], None] | None = None) -> LabelSummary:
     """Label everything ``cfg`` asks for that is not in the dataset yet; see the module docstring."""
     plan = plan or prepare(cfg)
+    try:
+        return _run_label(cfg, plan, on_batch)
+    finally:
+        plan.release()  # after the last commit
+
+
+def _run_label(cfg: LabelConfig, plan: LabelPlan,
+               on_batch: Callable[[LabelSummary], None] | None) -> LabelSummary:
     t_start = plan.started
     out = Path(cfg.out)
-    summary = LabelSummary(out=str(out), total=plan.total)
+    summary = LabelSummary(out=str(out), total=plan.total,
+                           dataset_duplicates=plan.duplicates.rows if plan.duplicates else 0)
 
     def commit_meta() -> None:
         if plan.new_dataset:
@@ -239,6 +257,11 @@ def format_summary(s: LabelSummary) -> str:
         lines.append(f"first shard  committed {s.first_shard_s:.1f} s after the start")
     if s.peak_rss_mib:
         lines.append(f"driver       peak RSS {s.peak_rss_mib:.0f} MiB")
+    for name, short in sorted(s.short.items()):
+        lines.append(f"short        {name}: {short.describe()}")
+    if s.dataset_duplicates:
+        lines.append(f"duplicates   {s.dataset_duplicates} rows of the dataset repeat a key stored "
+                     f"before them (readers use each key's first row); this run added none")
     for name, why in sorted(s.failed.items()):
         lines.append(f"FAILED       {name}: {why} (its committed rows and every other assembly's are kept)")
     if s.labelled:

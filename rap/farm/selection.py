@@ -4,9 +4,16 @@
 options, the output directory and, when it already holds a dataset, that it was written with the
 same root seed, simulator parameters and assembly geometry) and decides per assembly which
 operations it takes (``rap.enumerate.select_operations``); ``iter_jobs`` then yields, lazily and
-assembly after assembly, the ``Job`` of every selected operation not yet in the dataset. The Ray
-driver (``rap.farm.driver``) and the Ray-free burst labeller (``scripts/label_burst.py``) share it,
-so both label exactly the same operations with the same keys and seeds.
+assembly after assembly, the ``Job`` of every selected operation not yet in the dataset, and
+records in ``LabelSummary.short`` each assembly whose selection ended before its total, with why.
+The Ray driver (``rap.farm.driver``) and the Ray-free burst labeller (``scripts/label_burst.py``)
+share it, so both label exactly the same operations with the same keys and seeds.
+
+One writer per dataset: ``prepare`` takes the dataset's lock (``rap.dataset.lock_dataset``) before
+it reads anything that decides what to label, and the plan holds it until ``LabelPlan.release()``
+(``run_label`` releases it after its last commit; so does the end of the process). A second
+``prepare`` on the same ``--out`` meanwhile raises ``DatasetBusyError`` (exit 3) naming the
+holder's pid and host, and writes nothing.
 """
 
 from __future__ import annotations
@@ -20,8 +27,9 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 from rap.assembly import Assembly
-from rap.dataset import METADATA_FILE, SCHEMA_VERSION, existing_keys, open_dataset, read_meta
-from rap.enumerate import MODES, Selection, label_key, label_seed, select_operations
+from rap.dataset import (METADATA_FILE, SCHEMA_VERSION, DatasetLock, Duplicates, duplicate_keys,
+                         existing_keys, lock_dataset, read_meta, read_table)
+from rap.enumerate import MODES, Selection, Shortfall, label_key, label_seed, select_operations
 from rap.errors import InputError, RapError
 from rap.io import load_assembly
 from rap.operation import Operation
@@ -79,6 +87,19 @@ class LabelPlan:
     existing_keys: set[str]  # keys already in the dataset (resume)
     new_dataset: bool
     started: float = field(default_factory=time.perf_counter)  # perf_counter at prepare()
+    lock: DatasetLock | None = None  # the dataset's one-writer lock, held until release()
+    duplicates: Duplicates | None = None  # keys the dataset already held more than once
+
+    def release(self) -> None:
+        """Release the dataset's lock (idempotent): no more rows will be written by this plan."""
+        if self.lock is not None:
+            self.lock.release()
+
+    def __enter__(self) -> "LabelPlan":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
 
     @property
     def total(self) -> int:
@@ -110,6 +131,8 @@ class LabelSummary:
     task_s: float = 0.0
     startup_s: float = 0.0  # starting/joining Ray and the actors
     interrupted: bool = False
+    dataset_duplicates: int = 0  # rows the dataset held before this run whose key was stored before
+    short: dict[str, Shortfall] = field(default_factory=dict)  # assemblies whose selection ended early
 
     @property
     def rate(self) -> float:
@@ -170,7 +193,7 @@ def _check_geometry(out: Path, assemblies: Sequence[Assembly]) -> None:
         return
     import pyarrow.compute as pc
 
-    t = open_dataset(out).to_table(columns=["assembly", "geometry_hash"])
+    t = read_table(out, columns=["assembly", "geometry_hash"])
     pairs = pc.unique(pc.binary_join_element_wise(t["assembly"], t["geometry_hash"], "\0")).to_pylist()
     stored: dict[str, set[str]] = {}
     for s in pairs:
@@ -185,8 +208,11 @@ def _check_geometry(out: Path, assemblies: Sequence[Assembly]) -> None:
 
 
 def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) -> LabelPlan:
-    """Check every input and decide what each assembly contributes. Raises ``InputError``;
-    writes nothing. Enumerates nothing beyond a bounded count per assembly."""
+    """Check every input, take the dataset's lock and decide what each assembly contributes.
+    Raises ``InputError`` (``CorruptShardError`` for a shard that does not read),
+    ``DatasetBusyError`` when another run holds the lock; writes nothing but the lock file (and
+    ``--out`` when missing: both go with ``LabelPlan.release()``). Enumerates nothing beyond a
+    bounded count per assembly."""
     started = time.perf_counter()
     if not cfg.assemblies:
         raise InputError("no assembly given")
@@ -224,17 +250,24 @@ def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) ->
         params = params_cls(trials=int(cfg.trials))
     except (TypeError, ValueError) as exc:
         raise InputError(f"invalid simulator parameters: {exc}") from None
-    new = _check_meta(out, cfg.seed, params)
-    _check_geometry(out, assemblies)
+    lock = lock_dataset(out, cfg.command)  # before anything read decides what to label
+    try:
+        new = _check_meta(out, cfg.seed, params)
+        _check_geometry(out, assemblies)
 
-    selections: dict[str, Selection] = {}
-    for a in assemblies:
-        status(f"counting {a.name}")
-        # TooManyOperations (an InputError): uncapped and beyond the budget, refused at once
-        selections[a.name] = select_operations(a, cfg.max_ops_per_assembly, cfg.seed, cfg.mode,
-                                               cfg.directions_per_range)
-    return LabelPlan(config=cfg, assemblies=assemblies, params=params, selections=selections,
-                     existing_keys=existing_keys(out), new_dataset=new, started=started)
+        selections: dict[str, Selection] = {}
+        for a in assemblies:
+            status(f"counting {a.name}")
+            # TooManyOperations (an InputError): uncapped and beyond the budget, refused at once
+            selections[a.name] = select_operations(a, cfg.max_ops_per_assembly, cfg.seed,
+                                                   cfg.mode, cfg.directions_per_range)
+        keys = existing_keys(out)
+        return LabelPlan(config=cfg, assemblies=assemblies, params=params, selections=selections,
+                         existing_keys=keys, new_dataset=new, started=started, lock=lock,
+                         duplicates=duplicate_keys(out))
+    except BaseException:
+        lock.release()
+        raise
 
 
 def iter_jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], None]) -> Iterator[Job]:
@@ -246,10 +279,13 @@ def iter_jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], N
     for a in plan.assemblies:
         gh = a.geometry_hash
         seen: set[str] = set()  # this assembly's keys (its selection is distinct by construction)
+        selection = plan.selections[a.name]
+        selected = 0
         try:
-            for op in plan.selections[a.name]:
+            for op in selection:
                 if a.name in summary.failed:
                     break
+                selected += 1
                 key = label_key(op, gh, fp, seed)
                 if key in seen:
                     continue
@@ -259,6 +295,10 @@ def iter_jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], N
                     skipped(1)
                     continue
                 yield Job(a, op, key, label_seed(op, gh, fp, seed))
+            if a.name not in summary.failed:
+                short = selection.shortfall(selected)
+                if short is not None:
+                    summary.short[a.name] = short
         except (RapError, ValueError, ArithmeticError, RecursionError, MemoryError) as exc:
             summary.failed.setdefault(a.name, f"selecting operations failed: {_one_line(exc)}")
 

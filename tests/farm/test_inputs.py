@@ -136,4 +136,6 @@ def test_prepare_same_params_resumes(existing):
                                max_ops_per_assembly=3, progress=False))
     assert not plan.new_dataset and plan.total == 3 and plan.existing_rows == 0
     assert plan.selections["grid"].how == "sampled"
+    assert set(snapshot(existing)) == set(before) | {"_rapfarm.lock"}  # the writer's lock, held
+    plan.release()
     assert snapshot(existing) == before
