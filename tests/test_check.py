@@ -28,7 +28,8 @@ def dataset(tmp_path):
     return root
 
 
-def run(argv, capsys) -> tuple[int, str, str]:
+def run(argv, capsys, main=main) -> tuple[int, str, str]:
+    """(exit status, stdout, stderr) of ``rap-farm ARGV`` run in this process by ``main``."""
     try:
         main(argv)
         code = 0

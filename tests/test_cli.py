@@ -31,6 +31,8 @@ CASES = [
     (["simulate", HEXAGON, "--moving", "hub", "--direction"], "--direction"),
     (["label"], "Missing"),
     (["label", HEXAGON, "--workers", "0", "--out", "d"], "--workers"),
+    (["check"], "Missing"),
+    (["check", "d", "--quarantine", "yes"], "unexpected extra argument"),
     (["train"], "Missing"),
     (["score"], "Missing"),
     (["evaluate"], "Missing"),

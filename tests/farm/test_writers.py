@@ -23,6 +23,7 @@ import rap.dataset as ds
 from rap.dataset import open_dataset
 
 from tests.farm.conftest import ASSEMBLIES, FAKE, ROOT, ray_env
+from tests.test_check import run
 
 pytestmark = pytest.mark.ray
 
@@ -84,19 +85,21 @@ def rows(out) -> list[dict]:
     return open_dataset(out).to_table().drop_columns(["node"]).sort_by("key").to_pylist()
 
 
-def cli(main, args, capsys) -> tuple[int, str, str]:
-    """(exit status, stdout, stderr) of ``rap-farm ARGS`` run by ``main``."""
-    try:
-        main(args)
-        code = 0
-    except SystemExit as exc:
-        code = exc.code
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
-
-
 def label(main, out, capsys, *extra) -> tuple[int, str, str]:
-    return cli(main, argv(out, *extra), capsys)
+    return run(argv(out, *extra), capsys, main)
+
+
+def killed_after(proc: subprocess.Popen, ready, timeout_s: float = 120.0) -> None:
+    """SIGKILL ``proc`` as soon as ``ready()`` holds (it must still be running then)."""
+    deadline = time.time() + timeout_s
+    try:
+        while not ready():
+            assert proc.poll() is None, proc.stderr.read()[-2000:]
+            assert time.time() < deadline, "not ready in time"
+            time.sleep(0.05)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(30)
 
 
 def test_two_concurrent_runs_on_one_out_one_refused_naming_the_other_and_no_key_twice(
@@ -128,17 +131,7 @@ def test_a_run_killed_with_sigkill_does_not_block_the_next(ray_local, tmp_path):
     address = ray_local.get_runtime_context().gcs_address
     out = tmp_path / "ds"
     proc = label_process(out, address)
-    try:
-        deadline = time.time() + 120
-        while time.time() < deadline and len(ds.shard_files(out)) < 2:
-            assert proc.poll() is None, proc.stderr.read()[-2000:]
-            time.sleep(0.05)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    killed_after(proc, lambda: len(ds.shard_files(out)) >= 2)
     before = open_dataset(out).count_rows()
     total = total_operations(standin)
     assert 0 < before < total
@@ -165,9 +158,9 @@ def test_a_corrupt_shard_is_named_quarantined_and_its_rows_labelled_again(in_pro
         f"rap-farm: error: {bad}: corrupt shard (Parquet magic bytes not found in footer. Either the "
         f"file is corrupted or this is not a parquet file.); `rap-farm check {out} --quarantine` "
         f"moves it aside and a rerun of `rap-farm label` refills its rows"]
-    code, _, _ = cli(in_process, ["check", str(out)], capsys)
+    code, _, _ = run(["check", str(out)], capsys)
     assert code == 2 and bad.exists()
-    code, _, _ = cli(in_process, ["check", str(out), "--quarantine"], capsys)
+    code, _, _ = run(["check", str(out), "--quarantine"], capsys)
     assert code == 0 and not bad.exists()
     assert (out / ds.QUARANTINE_DIR / bad.parent.name / bad.name).exists()
     code, summary, err = label(in_process, out, capsys)
