@@ -46,6 +46,7 @@ from typing import Callable, Iterator
 
 from rap.dataset import (SCHEMA_VERSION, DatasetMeta, clean_partial_files, rows_to_table, write_geometry,
                          write_meta, write_shard)
+from rap.errors import InputError
 
 from rap.farm.pool import IDLE_TIMEOUT_S, Job, SimPool
 from rap.farm.runtime import connect
@@ -129,6 +130,9 @@ def run_label(cfg: LabelConfig, plan: LabelPlan | None = None,
               on_batch: Callable[[LabelSummary], None] | None = None) -> LabelSummary:
     """Label everything ``cfg`` asks for that is not in the dataset yet; see the module docstring."""
     plan = plan or prepare(cfg)
+    if plan.lock is not None and not plan.lock.held:
+        raise InputError(f"--out {cfg.out}: this plan's lock on the dataset was released (the plan "
+                         f"was run or closed): prepare the run again")
     try:
         return _run_label(cfg, plan, on_batch)
     finally:

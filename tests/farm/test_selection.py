@@ -123,3 +123,12 @@ def test_an_exhaustive_stream_that_ends_early_says_so():
     assert sel.shortfall(10) is None
     assert sel.shortfall(len(list(sel))) == Shortfall(
         7, 10, 10, "the space holds fewer distinct operations than were counted")
+
+
+def test_a_plan_whose_lock_was_released_does_not_run(tmp_path):
+    from rap.farm.driver import run_label
+
+    plan = prepare(config(tmp_path / "ds"))
+    plan.release()
+    with pytest.raises(ds.InputError, match="this plan's lock on the dataset was released"):
+        run_label(plan.config, plan)

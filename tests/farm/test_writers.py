@@ -225,3 +225,17 @@ def test_label_on_a_dataset_with_duplicates_says_so_and_adds_none(in_process, tm
     assert (f"duplicates   {again} rows of the dataset repeat a key stored before them (readers use "
             f"each key's first row); this run added none") in summary.splitlines()
     assert open_dataset(out).count_rows() == n + again and ds.duplicate_keys(out).rows == again
+
+
+def test_readers_read_a_dataset_while_its_writer_holds_the_lock(ray_local, in_process, tmp_path,
+                                                                capsys):
+    import pandas as pd
+
+    out = tmp_path / "ds"
+    assert label(in_process, out, capsys)[0] == 0
+    n = open_dataset(out).count_rows()
+    with ds.lock_dataset(out, "a writer"):
+        assert (out / ds.LOCK_FILE).exists()
+        assert len(pd.read_parquet(out)) == n
+        assert ray_local.data.read_parquet(str(out), file_extensions=["parquet"]).count() == n
+        assert ds.read_table(out, ["key"]).num_rows == n
