@@ -31,7 +31,7 @@ from rap.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED,
 __all__ = ["app", "main"]
 
 COMMAND_MODULES = ("inspect", "show", "generate", "simulate", "label", "check", "train",
-                   "evaluate", "score", "plan", "serve", "experiment", "demo")
+                   "evaluate", "score", "plan", "serve", "experiment", "demo", "import_drawing")
 
 app = typer.Typer(
     name="rap-farm",

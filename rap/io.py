@@ -33,8 +33,19 @@ def parse_assembly(data: Any, source: str = "<memory>", default_name: str = "ass
     return assembly
 
 
+DRAWING_SUFFIXES = (".dxf", ".svg")  # = rap.cad.DRAWING_SUFFIXES, without importing rap.cad
+
+
 def load_assembly(path: str | Path, validate: bool = True) -> Assembly:
-    """Read an assembly JSON file exactly and validate it. Raises ``AssemblyError`` (one line)."""
+    """Read an assembly JSON file exactly and validate it. Raises ``AssemblyError`` (one line).
+
+    A drawing (``.dxf``, ``.svg``) is imported instead, with ``rap.cad``'s default options
+    (millimetres, tolerance 0.01, a part per closed loop), and always validated: this is how every
+    command that takes an assembly takes a drawing."""
+    if Path(path).suffix.lower() in DRAWING_SUFFIXES:
+        from rap.cad import import_drawing
+
+        return import_drawing(path).assembly
     assembly = read_assembly_json(path)
     if validate:
         validate_assembly(assembly)

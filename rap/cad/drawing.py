@@ -1,0 +1,113 @@
+"""What the readers of drawings hand to the loop builder: paths of float polylines in output units.
+
+A reader (``rap.cad.dxf``, ``rap.cad.svg``) turns each entity or subpath into a ``DrawnPath``: its
+pieces are consecutive primitives (a line, an arc, a Bezier, a spline...), each already flattened
+to a float polyline whose chords stay within the chordal tolerance of the curve, in the output unit
+(millimetres by default), y up. Each piece keeps its first and last points exactly as the entity
+defines them, so that the ends of pieces can be joined, merged and split by ``rap.cad.loops``; the
+interior points are the curve's flattening. ``Source`` names the entity in error messages (a DXF
+handle and layer, an SVG element id) and gives the parts their ids.
+
+``Problem`` is raised by the builders with a message that names the entities but not the file;
+``rap.cad.importer`` turns it into ``DrawingError``, an ``AssemblyError`` (exit status 2) of one
+line: ``FILE: ENTITY: problem``. No third-party imports.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+from rap.assembly import AssemblyError
+
+__all__ = ["Point", "Source", "DrawnPath", "Drawing", "Problem", "DrawingError", "UNITS_MM",
+           "fmt_length", "fmt_point"]
+
+Point = tuple[float, float]
+
+#: output units and their size in millimetres (exact decimals)
+UNITS_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+
+
+class DrawingError(AssemblyError):
+    """A drawing that cannot be imported: ``FILE: ENTITY: problem`` on one line (exit status 2)."""
+
+    def __init__(self, source: str, problem: str):
+        super().__init__(source, None, problem)
+
+
+class Problem(Exception):
+    """A problem found by a builder; the importer adds the file's name (``DrawingError``)."""
+
+
+@dataclass(frozen=True)
+class Source:
+    """Where a path comes from.
+
+    ``dialect`` is ``"dxf"`` or ``"svg"``; ``kind`` the DXF entity type or SVG tag; ``ident`` the
+    DXF handle or the SVG element id (None when the element has none); ``layer`` the DXF layer or
+    the SVG top-level group (None outside groups); ``order`` the position in the file (parts and
+    loops are sorted by it, so an import is deterministic); ``subpath`` the SVG subpath index.
+    """
+
+    dialect: str
+    kind: str
+    ident: str | None
+    layer: str | None
+    order: int
+    subpath: int = 0
+
+    def describe(self) -> str:
+        if self.dialect == "dxf":
+            return f"{self.kind} {self.ident} on layer {self.layer!r}"
+        who = f"<{self.kind} id={self.ident!r}>" if self.ident else \
+            f"<{self.kind}> #{self.order} (no id)"
+        return who + (f" subpath {self.subpath + 1}" if self.subpath else "")
+
+    def name(self) -> str:
+        """The base of a part id: the DXF layer, the SVG element id (or tag and number)."""
+        if self.dialect == "dxf":
+            return self.layer or "0"
+        return self.ident or f"{self.kind}{self.order}"
+
+    def tag(self) -> str:
+        """What tells two loops of the same ``name`` apart: the DXF handle, the SVG subpath."""
+        return str(self.ident) if self.dialect == "dxf" else str(self.subpath + 1)
+
+
+@dataclass
+class DrawnPath:
+    """Consecutive pieces (float polylines of >= 2 points, the end of one the start of the next),
+    closed when the last piece ends where the first begins."""
+
+    pieces: list[list[Point]]
+    source: Source
+    closed: bool
+
+    @property
+    def start(self) -> Point:
+        return self.pieces[0][0]
+
+    @property
+    def end(self) -> Point:
+        return self.pieces[-1][-1]
+
+    def reversed(self) -> "DrawnPath":
+        return DrawnPath([p[::-1] for p in reversed(self.pieces)], self.source, self.closed)
+
+
+@dataclass
+class Drawing:
+    """A reader's result: the paths, the unit read and converted, entities left out."""
+
+    paths: list[DrawnPath]
+    unit_note: str  # e.g. "$INSUNITS 1 (in) -> mm", "width 100mm -> mm", "--scale 0.5 mm"
+    ignored: Counter = field(default_factory=Counter)
+
+
+def fmt_length(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def fmt_point(p: Point) -> str:
+    return f"({p[0]:.6g}, {p[1]:.6g})"

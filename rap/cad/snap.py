@@ -1,0 +1,78 @@
+"""Floats onto an exact grid: the chordal tolerance is also the grid step of the imported drawing.
+
+``Grid.parse(tolerance)`` reads the tolerance as a decimal (text, ``Decimal`` or a float's
+shortest repr) and refuses, in one line, anything that is not positive, finer than 10^-6 (the
+finest grid of ``rap.assembly.LIMITS``: at most 6 digits after the point) or coarser than
+1,000 units. ``grid.index(x)`` is the nearest grid index of a float (``round(x / step)``; a
+coordinate past ``LIMITS.max_abs_coordinate`` is refused before it is converted), and
+``grid.value(k)`` is the exact ``Decimal`` ``k * step``, which has at most 6 digits after the point
+and reads back exactly through ``rap.assembly``. Exact geometry downstream works on the integer
+indices: every coordinate of an imported drawing is ``index * step``, so orientation and
+containment tests on indices are the exact tests on the coordinates.
+
+Snapping moves a point by at most ``step * sqrt(2) / 2``. Two floats that differ by rounding
+noise can land on neighbouring grid points; the importer never relies on that not happening: it
+merges endpoints within the tolerance before it snaps them (``rap.cad.loops``), so a shared
+vertex is snapped once. No third-party imports; O(1) per coordinate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from decimal import Decimal, InvalidOperation
+from fractions import Fraction
+
+from rap.assembly import LIMITS
+from rap.errors import InputError
+
+__all__ = ["Grid", "TOLERANCE_BOUNDS"]
+
+#: finest and coarsest tolerance accepted (units of the output)
+TOLERANCE_BOUNDS = (Decimal(1).scaleb(-LIMITS.max_decimal_places), Decimal(1000))
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A square grid of exact step ``step`` (a positive ``Decimal`` of at most 6 decimals)."""
+
+    step: Decimal
+
+    @classmethod
+    def parse(cls, tolerance: str | Decimal | float | int) -> "Grid":
+        """The grid of a tolerance; ``InputError`` (one line) for a bad one."""
+        text = repr(tolerance) if isinstance(tolerance, float) else str(tolerance)
+        try:
+            step = Decimal(text.strip())
+        except (InvalidOperation, ValueError):
+            raise InputError(f"--tolerance {text!r}: not a number") from None
+        lo, hi = TOLERANCE_BOUNDS
+        if not step.is_finite() or step <= 0:
+            raise InputError(f"--tolerance {text}: must be a positive number")
+        if step < lo or step.normalize().as_tuple().exponent < -LIMITS.max_decimal_places:
+            raise InputError(f"--tolerance {text}: finer than the coordinate grid 1e-6 of "
+                             f"assembly files (at most {LIMITS.max_decimal_places} digits after "
+                             f"the point)")
+        if step > hi:
+            raise InputError(f"--tolerance {text}: coarser than {hi} units")
+        return cls(step.normalize())
+
+    @property
+    def step_float(self) -> float:
+        return float(self.step)
+
+    def index(self, x: float) -> int:
+        """The nearest grid index of ``x`` (``ValueError`` for a non-finite or out-of-range x)."""
+        if not math.isfinite(x) or abs(x) > LIMITS.max_abs_coordinate:
+            raise ValueError(x)
+        return round(x / self.step_float)
+
+    def value(self, k: int) -> Decimal:
+        """The exact coordinate of index ``k``."""
+        return (self.step * k).normalize() if k else Decimal(0)
+
+    def fraction(self, k: int) -> Fraction:
+        return Fraction(self.step) * k
+
+    def to_float(self, k: int) -> float:
+        return float(self.value(k))
