@@ -358,7 +358,7 @@ class DatasetLock:
 
 
 def _describe_owner(text: str) -> str:
-    """``pid 123 on host, started 2026-01-01T00:00:00+0000: rap-farm label ...`` from a lock file."""
+    """``pid 123 on HOST, started 2026-01-01T00:00:00+0000: rap-farm label ...`` (a lock file's)."""
     try:
         d = json.loads(text)
         head = f"pid {int(d['pid'])} on {d['host']}"
@@ -372,9 +372,9 @@ def _describe_owner(text: str) -> str:
 
 
 def _busy(root: Path, text: str) -> DatasetBusyError:
-    return DatasetBusyError(f"{root}: another run is writing this dataset ({_describe_owner(text)}); "
-                            f"nothing was done: run again once it has finished, or choose "
-                            f"another --out")
+    return DatasetBusyError(f"{root}: another run is writing this dataset "
+                            f"({_describe_owner(text)}); nothing was done: run again once it has "
+                            f"finished, or choose another --out")
 
 
 def _read_text(path: Path) -> str:
@@ -713,8 +713,10 @@ def _scan_keys(root: Path, files: list[Path]) -> pa.ChunkedArray:
     counts = pc.value_counts(keys)
     many = pc.filter(counts.field("values"), pc.greater(counts.field("counts"), 1))
     if len(many):
-        hit = pa.array(np.flatnonzero(pc.is_in(keys, value_set=many).to_numpy(zero_copy_only=False)))
-        for k, s in zip(keys.take(hit).to_pylist(), pc.take(t.column("__filename"), hit).to_pylist()):
+        hit = pa.array(np.flatnonzero(
+            pc.is_in(keys, value_set=many).to_numpy(zero_copy_only=False)))
+        shards = pc.take(t.column("__filename"), hit).to_pylist()
+        for k, s in zip(keys.take(hit).to_pylist(), shards):
             s = _shard_id(s)
             if k not in dup.first or s < dup.first[k]:
                 dup.first[k] = s

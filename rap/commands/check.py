@@ -50,7 +50,8 @@ def check_command(
     meta = ds.read_meta(dataset)  # InputError: a metadata file that does not read
     files = ds.shard_files(dataset)
     if meta is None and not files:
-        raise InputError(f"{dataset}: not a rap-farm dataset ({ds.METADATA_FILE} and shards missing)")
+        raise InputError(f"{dataset}: not a rap-farm dataset ({ds.METADATA_FILE} and shards "
+                         f"missing)")
     corrupt, rows = [], 0
     for p in files:
         why = ds.shard_problem(p)

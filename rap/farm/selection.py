@@ -132,7 +132,7 @@ class LabelSummary:
     startup_s: float = 0.0  # starting/joining Ray and the actors
     interrupted: bool = False
     dataset_duplicates: int = 0  # rows the dataset held before this run whose key was stored before
-    short: dict[str, Shortfall] = field(default_factory=dict)  # assemblies whose selection ended early
+    short: dict[str, Shortfall] = field(default_factory=dict)  # selections that ended early
 
     @property
     def rate(self) -> float:
