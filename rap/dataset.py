@@ -385,6 +385,8 @@ def _read_text(path: Path) -> str:
 
 
 def _pid_alive(pid: int) -> bool:
+    if pid <= 0:  # not a process (0, -N: process groups)
+        return False
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -416,11 +418,21 @@ def _flock(path: Path, text: str, root: Path) -> int | None:
         except FileNotFoundError:
             same = False
         if same:
-            os.ftruncate(fd, 0)
-            os.write(fd, text.encode())
+            _write_owner(fd, path, text)
             return fd
         os.close(fd)
     raise _busy(root, _read_text(path))
+
+
+def _write_owner(fd: int, path: Path, text: str) -> None:
+    """Write the holder's details into the lock file ``path`` open at ``fd``; on failure (a full
+    disk) remove and close it, which releases the lock, and raise."""
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, text.encode())
+    except OSError:
+        _unlock(fd, path, [])
+        raise
 
 
 def _exclusive(path: Path, text: str, root: Path) -> int:
@@ -441,7 +453,7 @@ def _exclusive(path: Path, text: str, root: Path) -> int:
                 raise _busy(root, held) from None
             path.unlink(missing_ok=True)
             continue
-        os.write(fd, text.encode())
+        _write_owner(fd, path, text)
         return fd
     raise _busy(root, _read_text(path))
 

@@ -142,6 +142,24 @@ def test_without_flock_a_stale_lock_of_a_dead_process_is_taken_over(tmp_path, mo
         ds.lock_dataset(root)  # another host's process: cannot tell, refused
 
 
+def test_a_lock_that_cannot_be_written_is_a_storage_error_and_leaves_nothing(tmp_path, monkeypatch):
+    real_write = os.write
+
+    def full(fd, data):
+        if b'"pid"' in data:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real_write(fd, data)
+
+    monkeypatch.setattr(os, "write", full)
+    root = tmp_path / "ds"
+    with pytest.raises(StorageError, match=f"^{root / ds.LOCK_FILE}: cannot write: disk full"):
+        ds.lock_dataset(root)
+    assert not root.exists()  # nor the directory it made
+    monkeypatch.undo()
+    with ds.lock_dataset(root) as lock:  # the failed attempt holds nothing
+        assert lock.held
+
+
 # -- duplicate keys --------------------------------------------------------------------------------
 def duplicated(root: Path) -> Path:
     """Rows k0..k3 in one shard and k2..k5 in another (k2, k3 twice; node tells them apart),
