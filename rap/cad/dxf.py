@@ -144,6 +144,8 @@ def read_dxf(path: str | Path, unit: str, tol: float) -> Drawing:
     try:
         doc = ezdxf.readfile(str(path))
     except OSError as exc:
+        if exc.errno is None:  # ezdxf's "File ... is not a DXF file."
+            raise Problem("not a DXF file (ezdxf cannot read it)") from None
         raise Problem(f"cannot read: {exc.strerror or exc}") from None
     except (ezdxf.DXFError, ValueError, UnicodeError, EOFError) as exc:
         line = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:200]
@@ -166,17 +168,20 @@ def read_dxf(path: str | Path, unit: str, tol: float) -> Drawing:
     ignored: Counter = Counter()
     order = 0
 
-    def visit(entity, ident: str, depth: int) -> None:
+    def visit(entity, ident: str, depth: int, inherited: str | None = None) -> None:
         nonlocal order
         order += 1
         kind = entity.dxftype()
+        layer = entity.dxf.get("layer", "0")
+        if layer == "0" and inherited is not None:
+            layer = inherited  # a block's layer-0 entities take the INSERT's layer
         if kind == "INSERT":
             if depth > 16:
                 raise Problem(f"INSERT {ident}: blocks nested more than 16 deep")
             for k, sub in enumerate(entity.virtual_entities()):
-                visit(sub, f"{ident}.{k + 1}", depth + 1)
+                visit(sub, f"{ident}.{k + 1}", depth + 1, layer)
             return
-        src = Source("dxf", kind, ident, entity.dxf.get("layer", "0"), order)
+        src = Source("dxf", kind, ident, layer, order)
         try:
             got = _paths_of(entity, src, factor, sagitta)
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:

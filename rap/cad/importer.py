@@ -115,7 +115,16 @@ def _validated(doc: dict, source: str, parts: list[ExactPart]) -> Assembly:
             return DrawingError(source, f"{part.source.describe()} and "
                                         f"{other.source.describe()}: parts {part.id!r} and "
                                         f"{other.id!r} overlap")
-        return DrawingError(source, f"{part.source.describe()} (part {part.id!r}): {exc.problem}")
+        def hole(m: re.Match) -> str:
+            k = int(m.group(1))
+            return f"the hole {part.hole_sources[k].describe()}" if k < len(part.hole_sources) \
+                else m.group(0)
+
+        problem = re.sub(r"\bhole (\d+)", hole, exc.problem)
+        problem = re.sub(r"\bholes (\d+) and (\d+)", lambda m: (
+            f"the holes {part.hole_sources[int(m.group(1))].describe()} and "
+            f"{part.hole_sources[int(m.group(2))].describe()}"), problem)
+        return DrawingError(source, f"{part.source.describe()} (part {part.id!r}): {problem}")
 
     try:
         assembly = assembly_from_json(doc, source, default_name=doc["name"])

@@ -14,11 +14,12 @@ on both sides, by construction:
 1. *Nodes.* The ends of every piece of every loop are merged when they lie within the tolerance
    of each other (union-find over a hash grid of the tolerance's size) and each group is snapped
    once, to the grid point nearest its mean. Two pieces that meet in the drawing meet at one
-   node, whatever the floats' rounding; a joint of a loop whose ends snap apart on their own is
-   a gap closed (counted).
+   node, whatever the floats' rounding; a joint of a loop whose ends are apart by more than
+   rounding (1e-9 of the drawing's extent) and at most the tolerance is a gap closed (counted).
 2. *One edge, one geometry.* Each piece, its ends replaced by their nodes, is looked up in a table
-   keyed by its two nodes in canonical order (the smaller first) and its arc-length midpoint: a
-   piece with the same nodes and a midpoint within the tolerance is the same edge. The two sides
+   keyed by its two nodes in canonical order (the smaller first): a piece with the same nodes
+   whose vertices all lie within twice the tolerance of the other's polyline, and the other's of
+   its (two flattenings of one curve are each within the tolerance of it), is the same edge. The two sides
    of a shared arc, line or spline, drawn once per part in either direction, are one edge.
 3. *T-junctions.* Each distinct edge is split at every node that lies within the tolerance of it
    (a vertex of another part on this edge, the end of an arc that covers only part of it), and
@@ -232,8 +233,25 @@ def _midpoint(poly: list[Point]) -> Point:
     return poly[-1]
 
 
+def _near_polyline(points: list[Point], poly: list[Point], limit: float) -> bool:
+    """Is every point within ``limit`` of the polyline? (Points along it in order: each search
+    starts at the segment the previous point was near.)"""
+    m = len(poly) - 1
+    j = 0
+    for p in points:
+        for k in (*range(j, m), *range(j)):
+            if _closest(p, poly[k], poly[k + 1])[0] <= limit:
+                j = k
+                break
+        else:
+            return False
+    return True
+
+
 class _EdgeTable:
-    """Distinct edges: the same two nodes (canonical order) and midpoints within ``tol``."""
+    """Distinct edges: the same two nodes (canonical order), each polyline's vertices within
+    twice the tolerance of the other (two flattenings of one curve, each within the tolerance of
+    it, with their ends moved to the nodes)."""
 
     def __init__(self, tol: float):
         self.tol = tol
@@ -248,8 +266,12 @@ class _EdgeTable:
         if rev:
             a, b, poly = b, a, poly[::-1]
         mid = _midpoint(poly)
+        limit = 2 * self.tol
         for e in self.by_ends[(a, b)]:
-            if _dist(self.mids[e], mid) <= self.tol:
+            other = self.polys[e]
+            if other == poly or (_dist(self.mids[e], mid) <= 2 * limit
+                                 and _near_polyline(poly[1:-1], other, limit)
+                                 and _near_polyline(other[1:-1], poly, limit)):
                 return e, rev
         e = len(self.polys)
         self.by_ends[(a, b)].append(e)
@@ -333,8 +355,9 @@ def _split(poly: list[Point], a: Node, b: Node, index: _NodeIndex, tol: float
 
 
 def exact_rings(loops: list[Loop], grid: Grid, unit: str) -> tuple[list[ExactRing], int]:
-    """The loops as simple exact rings on the grid, and the number of gaps closed (joints whose
-    two ends snap to different grid points on their own). See the module doc."""
+    """The loops as simple exact rings on the grid, and the number of gaps closed (joints of a
+    loop whose two ends differ by more than floating-point rounding, at most the tolerance).
+    See the module doc."""
     tol = grid.step_float
     ends: list[Point] = []
     for loop in loops:
@@ -347,6 +370,9 @@ def exact_rings(loops: list[Loop], grid: Grid, unit: str) -> tuple[list[ExactRin
                                   f"bounds of assembly files (|x| <= 10^9)") from None
             ends += (pts[0], pts[-1])
     node_of = _nodes(ends, tol, grid)
+    # ends computed from curves (an ARC's from its centre and angles) miss the LINE they join by
+    # rounding only: a joint counts as a gap closed past 1e-9 of the drawing's extent
+    noise = 1e-9 * max([1.0] + [max(abs(p[0]), abs(p[1])) for p in ends])
 
     gaps = 0
     k = 0
@@ -363,8 +389,7 @@ def exact_rings(loops: list[Loop], grid: Grid, unit: str) -> tuple[list[ExactRin
                 raise Problem(f"{src.describe()}: open loop: its end {fmt_point(pts[-1])} and "
                               f"the start of {nxt_src.describe()} are {fmt_length(gap)} {unit} "
                               f"apart (tolerance {fmt_length(tol)} {unit})")
-            e, s = pts[-1], nxt_pts[0]
-            if (grid.index(e[0]), grid.index(e[1])) != (grid.index(s[0]), grid.index(s[1])):
+            if _dist(pts[-1], nxt_pts[0]) > noise:
                 gaps += 1
         loop_ends.append(pairs)
 
@@ -431,12 +456,25 @@ def exact_rings(loops: list[Loop], grid: Grid, unit: str) -> tuple[list[ExactRin
 
 def _checked(ring: ExactRing, grid: Grid, unit: str) -> ExactRing:
     v = ring.vertices
+    if len(v) >= 3 and not ring_is_simple(v):
+        raise Problem(_self_intersection(ring, grid))
     if len(v) < 3 or signed_area2(v) == 0:
         raise Problem(f"{ring.loop.source.describe()}: the loop has no area on the grid of the "
                       f"tolerance {grid.step} {unit} (smaller or thinner than the tolerance)")
-    if not ring_is_simple(v):
-        raise Problem(_self_intersection(ring, grid))
     return ring
+
+
+def _meeting(a: Node, b: Node, c: Node, d: Node) -> tuple[float, float]:
+    """Where segments ab and cd (which meet) meet, for a message: their crossing, or an end of
+    one lying on the other when they are parallel."""
+    den = (b[0] - a[0]) * (d[1] - c[1]) - (b[1] - a[1]) * (d[0] - c[0])
+    if den == 0:
+        for p, (s, t) in ((c, (a, b)), (d, (a, b)), (a, (c, d)), (b, (c, d))):
+            if _closest(p, s, t)[0] == 0:
+                return p
+        return c
+    t = Fraction((c[0] - a[0]) * (d[1] - c[1]) - (c[1] - a[1]) * (d[0] - c[0]), den)
+    return (float(a[0] + t * (b[0] - a[0])), float(a[1] + t * (b[1] - a[1])))
 
 
 def _self_intersection(ring: ExactRing, grid: Grid) -> str:
@@ -456,7 +494,7 @@ def _self_intersection(ring: ExactRing, grid: Grid) -> str:
                 if i == 0 and j == n - 1:
                     continue
                 if segments_intersect(v[i], v[(i + 1) % n], v[j], v[(j + 1) % n]):
-                    where = i, j, v[j]
+                    where = i, j, _meeting(v[i], v[(i + 1) % n], v[j], v[(j + 1) % n])
                     break
             if where is not None:
                 break
@@ -464,7 +502,7 @@ def _self_intersection(ring: ExactRing, grid: Grid) -> str:
         return f"{ring.loop.source.describe()}: self-intersection"
     i, j, p = where
     a, b = ring.sources[i], ring.sources[j]
-    at = fmt_point((float(Fraction(grid.step) * p[0]), float(Fraction(grid.step) * p[1])))
+    at = fmt_point((float(grid.step) * p[0], float(grid.step) * p[1]))
     if a == b:
         return f"{a.describe()}: self-intersection near {at}"
     return f"{a.describe()}: self-intersection: it meets {b.describe()} near {at}"

@@ -45,6 +45,7 @@ class ExactPart:
     holes: list[list[Node]]
     source: Source
     layer: str | None
+    hole_sources: list[Source]
 
 
 def interior_point(ring: list[Node]) -> tuple[Fraction, Fraction]:
@@ -164,8 +165,9 @@ def group_parts(rings: list[ExactRing], by: str = "loop") -> list[ExactPart]:
         while pid in used:
             pid, k = _clean_id(f"{base}:{src.tag()}.{k}"), k + 1
         used.add(pid)
-        holes = sorted((_canonical(rings[h].vertices, ccw=False) for h in hole_ids),
-                       key=lambda ring: ring[0])
-        out.append(ExactPart(pid, _canonical(rings[outer].vertices, ccw=True), holes, src,
-                             rings[outer].loop.layer))
+        holes = sorted(((_canonical(rings[h].vertices, ccw=False), rings[h].loop.source)
+                        for h in hole_ids), key=lambda hs: hs[0][0])
+        out.append(ExactPart(pid, _canonical(rings[outer].vertices, ccw=True),
+                             [h for h, _ in holes], src, rings[outer].loop.layer,
+                             [s for _, s in holes]))
     return out
