@@ -161,26 +161,6 @@ def dxf_seven(tmp: Path) -> Path:
     return _save(doc, tmp, "seven")
 
 
-def grid_drawing(path: Path, n: int = 10, size: float = 10.0, bulge: float = 0.2) -> Path:
-    """An n x n grid of cells, each its own closed LWPOLYLINE on its own layer; every interior
-    vertical edge bulges (+x going up) and every interior horizontal edge bulges (+y going
-    right), drawn from both sides with opposite bulges. 100 parts for n = 10."""
-    doc, msp = _doc()
-    for i in range(n):
-        for j in range(n):
-            x0, y0, x1, y1 = i * size, j * size, (i + 1) * size, (j + 1) * size
-            # counter-clockwise: bottom (left to right), right (up), top (right to left), left
-            b_bottom = -bulge if j > 0 else 0  # a positive bulge bulges to the right of travel
-            b_right = bulge if i < n - 1 else 0
-            b_top = bulge if j < n - 1 else 0  # drawn right to left: +y is to its right
-            b_left = -bulge if i > 0 else 0
-            msp.add_lwpolyline([(x0, y0, b_bottom), (x1, y0, b_right), (x1, y1, b_top),
-                                (x0, y1, b_left)], format="xyb", close=True,
-                               dxfattribs={"layer": f"c{i}_{j}"})
-    doc.saveas(path)
-    return Path(path)
-
-
 SVG_TOUCHING_ARC = """<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="10mm" viewBox="0 0 20 10">
   <path id="a" d="M 0 0 L 10 0 A 5 5 0 0 1 10 10 L 0 10 Z"/>
   <path id="b" d="M 20 0 L 20 10 L 10 10 A 5 5 0 0 0 10 0 Z"/>

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from decimal import Decimal
 from fractions import Fraction
+from pathlib import Path
 
 import pytest
 
@@ -145,6 +146,23 @@ def test_seven_parts_with_arcs_import_and_validate(tmp_path):
     assert [p.id for p in result.assembly.parts] == ["tray", "b1", "b2", "b3", "cap", "d1", "d2"]
     p = {q.id: q for q in result.assembly.parts}
     assert p["b1"].area() + p["b2"].area() + p["b3"].area() == 300
+
+
+def test_the_benchmark_grid_tiles_its_square_exactly(tmp_path):
+    """benchmarks/cad_import.py's drawing, 3 x 3: every interior edge an arc drawn from both
+    sides; the nine cells cover the 30 x 30 square with no gap and no overlap."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "cad_import", Path(__file__).resolve().parents[2] / "benchmarks" / "cad_import.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    cells = parts(bench.write_grid(tmp_path / "grid.dxf", 3))
+    assert len(cells) == 9 and sum(c.area() for c in cells.values()) == 900
+    middle = cells["c1_1"]
+    assert middle.area() == 100  # it gains on its right and top what it loses left and below
+    for other in ("c0_1", "c2_1", "c1_0", "c1_2"):
+        assert len(set(middle.outer) & set(cells[other].outer)) > 8
 
 
 def test_the_import_is_deterministic(tmp_path):
