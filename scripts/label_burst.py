@@ -159,4 +159,10 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from rap.errors import RapError
+
+    try:
+        main()
+    except RapError as exc:  # one line, the CLI's exit status (a busy dataset: 3)
+        print(f"label_burst: error: {exc}", file=sys.stderr)
+        sys.exit(exc.exit_code)
