@@ -18,6 +18,7 @@ from typing import Any
 
 from rap.assembly import LIMITS, Assembly, InputLimits, assembly_from_json, assembly_to_json, \
     read_assembly_json
+from rap.cad.importer import DRAWING_SUFFIXES  # ezdxf and svgelements load when a drawing does
 from rap.geometry.validation import validate_assembly
 
 __all__ = ["load_assembly", "parse_assembly", "assembly_to_json"]
@@ -33,9 +34,6 @@ def parse_assembly(data: Any, source: str = "<memory>", default_name: str = "ass
     return assembly
 
 
-DRAWING_SUFFIXES = (".dxf", ".svg")  # = rap.cad.DRAWING_SUFFIXES, without importing rap.cad
-
-
 def load_assembly(path: str | Path, validate: bool = True) -> Assembly:
     """Read an assembly JSON file exactly and validate it. Raises ``AssemblyError`` (one line).
 
@@ -43,7 +41,7 @@ def load_assembly(path: str | Path, validate: bool = True) -> Assembly:
     (millimetres, tolerance 0.01, a part per closed loop), and always validated: this is how every
     command that takes an assembly takes a drawing."""
     if Path(path).suffix.lower() in DRAWING_SUFFIXES:
-        from rap.cad import import_drawing
+        from rap.cad.importer import import_drawing
 
         return import_drawing(path).assembly
     assembly = read_assembly_json(path)

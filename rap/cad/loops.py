@@ -19,8 +19,9 @@ on both sides, by construction:
 2. *One edge, one geometry.* Each piece, its ends replaced by their nodes, is looked up in a table
    keyed by its two nodes in canonical order (the smaller first): a piece with the same nodes
    whose vertices all lie within twice the tolerance of the other's polyline, and the other's of
-   its (two flattenings of one curve are each within the tolerance of it), is the same edge. The two sides
-   of a shared arc, line or spline, drawn once per part in either direction, are one edge.
+   its (two flattenings of one curve are each within the tolerance of it), is the same edge.
+   The two sides of a shared arc, line or spline, drawn once per part in either direction, are
+   one edge.
 3. *T-junctions.* Each distinct edge is split at every node that lies within the tolerance of it
    (a vertex of another part on this edge, the end of an arc that covers only part of it), and
    the pieces go through the same table. An edge split differently on the two sides of a contact
@@ -147,7 +148,8 @@ def join_loops(paths: list[DrawnPath], tol: float, unit: str) -> list[Loop]:
                     (last.end, group[last.payload].source))
             for v, src in ends:
                 if deposit.degree(v) > 2:
-                    meet = sorted({group[e.payload].source for e in deposit.edges_linked_to(v, tol)},
+                    linked = deposit.edges_linked_to(v, tol)
+                    meet = sorted({group[e.payload].source for e in linked},
                                   key=lambda s: s.order)
                     raise Problem(f"{len(meet)} loose ends meet at {fmt_point((v.x, v.y))} ("
                                   + ", ".join(s.describe() for s in meet[:4])
@@ -297,7 +299,8 @@ class _NodeIndex:
 
         self.nodes = sorted(nodes)
         step = grid.step_float
-        self.xy = np.array([(x * step, y * step) for x, y in self.nodes], dtype=float).reshape(-1, 2)
+        self.xy = np.array([(x * step, y * step) for x, y in self.nodes],
+                           dtype=float).reshape(-1, 2)
         self.pos = {n: (float(self.xy[i, 0]), float(self.xy[i, 1]))
                     for i, n in enumerate(self.nodes)}
 
@@ -419,7 +422,11 @@ def exact_rings(loops: list[Loop], grid: Grid, unit: str) -> tuple[list[ExactRin
             a, b = table.ends[piece]
             verts: list[Node] = []
             for x, y in table.polys[piece][1:-1]:
-                n = (grid.index(x), grid.index(y))
+                try:
+                    n = (grid.index(x), grid.index(y))
+                except ValueError:
+                    raise Problem(f"a curve reaches {fmt_point((x, y))}, past the bounds of "
+                                  f"assembly files (|x| <= 10^9)") from None
                 if n != a and n != b and (not verts or verts[-1] != n):
                     verts.append(n)
             flat[piece] = verts

@@ -161,7 +161,8 @@ def dxf_seven(tmp: Path) -> Path:
     return _save(doc, tmp, "seven")
 
 
-SVG_TOUCHING_ARC = """<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="10mm" viewBox="0 0 20 10">
+SVG_TOUCHING_ARC = """<svg xmlns="http://www.w3.org/2000/svg"
+     width="20mm" height="10mm" viewBox="0 0 20 10">
   <path id="a" d="M 0 0 L 10 0 A 5 5 0 0 1 10 10 L 0 10 Z"/>
   <path id="b" d="M 20 0 L 20 10 L 10 10 A 5 5 0 0 0 10 0 Z"/>
 </svg>
@@ -169,7 +170,8 @@ SVG_TOUCHING_ARC = """<svg xmlns="http://www.w3.org/2000/svg" width="20mm" heigh
 """Two parts sharing a half circle through (10, 0), (15, 5), (10, 10) (SVG y down): 'a' bulges
 into 'b'; each draws the arc in its own direction."""
 
-SVG_INCH_TRANSFORMS = """<svg xmlns="http://www.w3.org/2000/svg" width="2in" height="1in" viewBox="0 0 200 100">
+SVG_INCH_TRANSFORMS = """<svg xmlns="http://www.w3.org/2000/svg"
+     width="2in" height="1in" viewBox="0 0 200 100">
   <g id="layer1" transform="translate(100, 0)">
     <rect id="sq" x="0" y="0" width="50" height="50" transform="rotate(90, 25, 25)"/>
   </g>
@@ -180,12 +182,15 @@ SVG_INCH_TRANSFORMS = """<svg xmlns="http://www.w3.org/2000/svg" width="2in" hei
 """100 user units per inch: 'sq' is a 0.5 in square at x 1..1.5 in, 'disc' a disc of radius
 0.25 in, 'ring' a 0.4 in square with a 0.2 in square hole (two subpaths of one path)."""
 
-SVG_UNITLESS = """<svg xmlns="http://www.w3.org/2000/svg" width="200" height="100" viewBox="0 0 100 50">
+SVG_UNITLESS = """<svg xmlns="http://www.w3.org/2000/svg"
+     width="200" height="100" viewBox="0 0 100 50">
   <rect id="r" x="0" y="0" width="10" height="5"/>
 </svg>
 """
 
-SVG_LAYERS = """<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" width="30mm" height="10mm" viewBox="0 0 30 10">
+SVG_LAYERS = """<svg xmlns="http://www.w3.org/2000/svg"
+     xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"
+     width="30mm" height="10mm" viewBox="0 0 30 10">
   <g inkscape:groupmode="layer" inkscape:label="frame">
     <rect x="0" y="0" width="10" height="10"/>
     <circle cx="5" cy="5" r="2"/>

@@ -42,7 +42,8 @@ def no_loop(m):
 #: (name, drawing writer or SVG text, the words the one-line error must contain)
 BAD = [
     ("open", open_loop, ["LINE", "layer '0'", "open loop", "0.5 mm"]),
-    ("selfx", self_intersection, ["LWPOLYLINE", "layer 'bow'", "self-intersection near (3.33333, 3.33333)"]),
+    ("selfx", self_intersection, ["LWPOLYLINE", "layer 'bow'",
+                                  "self-intersection near (3.33333, 3.33333)"]),
     ("overlap", overlap, ["layer 'a'", "layer 'b'", "parts 'a' and 'b' overlap"]),
     ("noloop", no_loop, ["no closed loop found", "1 TEXT"]),
     ("unitless", F.SVG_UNITLESS, ["<svg>: no physical units", "--scale"]),
