@@ -83,7 +83,7 @@ class ImportResult:
                 if self.ignored else "")
         return (f"{len(self.assembly)} parts ({holes} holes), {self.vertices} vertices, "
                 f"{self.gaps_closed} gaps closed, unit {self.unit} ({self.unit_note}), "
-                f"tolerance {self.tolerance} {self.unit}{left}")
+                f"tolerance {self.tolerance:f} {self.unit}{left}")
 
 
 def assembly_document(name: str, parts: list[ExactPart], grid: Grid) -> dict:

@@ -467,7 +467,7 @@ def _checked(ring: ExactRing, grid: Grid, unit: str) -> ExactRing:
         raise Problem(_self_intersection(ring, grid))
     if len(v) < 3 or signed_area2(v) == 0:
         raise Problem(f"{ring.loop.source.describe()}: the loop has no area on the grid of the "
-                      f"tolerance {grid.step} {unit} (smaller or thinner than the tolerance)")
+                      f"tolerance {grid.step:f} {unit} (smaller or thinner than the tolerance)")
     return ring
 
 
