@@ -51,13 +51,19 @@ def exact_json(value: Any) -> str:
 
 def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
               options: dict | None = None) -> bytes:
-    """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``);
+    """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``) or a
+    drawing (.dxf, .svg: imported with the default options, as ``load_assembly`` does);
     ``options``: the method's planner options (``rap.farm.api.PLANNER_OPTIONS``), those not None."""
     path = Path(assembly_path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"), parse_float=Decimal, parse_int=int)
-    except (OSError, ValueError) as exc:
-        raise InputError(f"{path}: cannot read ({exc})") from None
+    if path.suffix.lower() in (".dxf", ".svg"):  # a drawing: sent as the assembly it imports to
+        from rap.io import assembly_to_json, load_assembly
+
+        data = assembly_to_json(load_assembly(path))
+    else:
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"), parse_float=Decimal, parse_int=int)
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{path}: cannot read ({exc})") from None
     if isinstance(data, dict) and "name" not in data:
         data = {"name": path.stem, **data}
     body = {"assembly": data, "method": method}

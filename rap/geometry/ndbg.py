@@ -135,6 +135,20 @@ class NDBG:
         return rows
 
     @property
+    def toggle_pairs(self) -> tuple:
+        """The toggled pairs of every cell as three int64 numpy arrays ``(cell, i, j)`` (cell 0
+        included), for vectorised sweeps (``rap.geometry.partitions._changed_cells``)."""
+        arrays = self.__dict__.get("_toggle_pairs")
+        if arrays is None:
+            import numpy as np
+
+            flat = [(k, i, j) for k, tg in enumerate(self.toggles) for i, j in tg]
+            table = np.array(flat, dtype=np.int64).reshape(-1, 3)
+            arrays = (table[:, 0].copy(), table[:, 1].copy(), table[:, 2].copy())
+            object.__setattr__(self, "_toggle_pairs", arrays)
+        return arrays
+
+    @property
     def offset(self) -> int:
         """0 when the first critical direction is angle 0 (vertex first), else 1."""
         return 0 if not self.criticals or self.criticals[0] == (1, 0) else 1

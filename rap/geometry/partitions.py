@@ -28,6 +28,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Iterable
 
+import numpy as np
+
 from rap.errors import InputError
 from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, arc_middle_unit,
                                 exact_direction, in_open_arc, primitive, unit)
@@ -191,15 +193,14 @@ def _online_choice(out, inn, idx, m) -> int:
 
 
 def _changed_cells(ndbg: NDBG, m: int) -> list[int]:
-    """Indices k >= 1 of the cells whose DBG restricted to the parts in m differs from k - 1's."""
-    out = []
-    for k, (src, rows) in enumerate(ndbg.toggle_rows):
-        if k and src & m:
-            for i, jm in rows:
-                if jm & m and m >> i & 1:
-                    out.append(k)
-                    break
-    return out
+    """Indices k >= 1 of the cells whose DBG restricted to the parts in m differs from k - 1's:
+    those with a toggled pair (i, j) of parts both in m. O(toggled pairs) numpy work on integer
+    arrays (``NDBG.toggle_pairs``), a few microseconds per thousand pairs."""
+    cell, first, second = ndbg.toggle_pairs
+    inside = np.unpackbits(np.frombuffer(m.to_bytes((ndbg.n + 7) // 8 or 1, "little"), np.uint8),
+                           bitorder="little")[:ndbg.n].astype(bool)
+    hit = cell[inside[first] & inside[second]]
+    return np.unique(hit[hit > 0]).tolist()
 
 
 def online_partitions(ndbg: NDBG, subset: Iterable[str]) -> list[Partition]:

@@ -120,3 +120,18 @@ def test_a_seven_part_dxf_with_arcs_is_planned(run_cli, tmp_path, monkeypatch):
     plan = json.loads((tmp_path / "plan.json").read_text())
     seen = {p for step in plan["steps"] for p in step["moving"] + step["fixed"]}
     assert len(plan["steps"]) == 6 and seen == {"tray", "b1", "b2", "b3", "cap", "d1", "d2"}
+
+
+def test_the_request_body_for_a_drawing_is_its_imported_assembly(tmp_path):
+    """``plan --server drawing.dxf`` sends the assembly the drawing imports to, exactly."""
+    from decimal import Decimal
+
+    from rap.client import plan_body
+    from rap.farm.api import parse_plan_request
+    path = F.dxf_seven(tmp_path)
+    body = plan_body(path, "sim", seed=3)
+    assembly, method, seed, options = parse_plan_request(body)
+    imported = load_assembly(path)
+    assert (method, seed, options) == ("sim", 3, {})
+    assert assembly.geometry_hash == imported.geometry_hash and assembly.ids == imported.ids
+    assert json.loads(body, parse_float=Decimal)["assembly"]["name"] == imported.name
