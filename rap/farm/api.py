@@ -16,24 +16,31 @@ are those of ``rap-farm plan`` for the method asked for (search: ``simulations``
 ``max_simulations``, ``trust``, ``optimism``, ``beam_width``; rap: ``fallback_k``,
 ``high_probability``, ``fallback_optimism``); numbers are parsed as decimals, exactly as
 ``rap.io.load_assembly`` reads a file, and an invalid assembly gets the CLI's
-``AssemblyError`` text with ``assembly`` as its source. ``rap.farm.serve`` serves them over HTTP.
+``AssemblyError`` text with ``assembly`` as its source. ``read_upload(name, body)`` reads an
+uploaded file (``POST /import``, ``/inspect``): a drawing (.dxf, .svg) or an assembly file (.json),
+written under its own name in a temporary directory and read by ``rap.io.load_assembly``, which
+chooses the reader by the suffix; its errors name the file as the client did. ``rap.farm.serve``
+serves them over HTTP.
 """
 
 from __future__ import annotations
 
 import ipaddress
 import json
+import re
+import tempfile
 from dataclasses import asdict, dataclass, replace
 from decimal import Decimal, InvalidOperation
+from pathlib import Path
 
-from rap.assembly import LIMITS, AssemblyError, json_error_reason
-from rap.io import parse_assembly
+from rap.assembly import LIMITS, Assembly, AssemblyError, json_error_reason
+from rap.io import load_assembly, parse_assembly
 from rap.errors import InputError
 from rap.plan.methods import DEFAULT_METHOD, METHODS
 from rap.seeds import DEFAULT_ROOT_SEED
 
-__all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "is_loopback", "REQUEST_KEYS",
-           "DETAILS_HEADER", "PLANNER_OPTIONS"]
+__all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "read_upload", "is_loopback",
+           "REQUEST_KEYS", "DETAILS_HEADER", "PLANNER_OPTIONS", "UPLOAD_SUFFIXES"]
 
 REQUEST_KEYS = ("assembly", "method", "seed", "options")
 # option -> (methods it applies to, kind, low, high, low inclusive): make_planner's keywords
@@ -46,6 +53,7 @@ PLANNER_OPTIONS = {
     "high_probability": (("rap",), float, 0.0, 1.0, False),
     "fallback_optimism": (("rap",), float, 0.0, 1.0, True),
 }
+UPLOAD_SUFFIXES = (".dxf", ".svg", ".json")  # what POST /import and /inspect read
 DETAILS_HEADER = "X-Plan-Details"  # {"eval_seconds", "stats"} of an answered plan (rap.client)
 
 
@@ -185,3 +193,43 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
         raise BadRequest(413, f"method 'optimal': {len(assembly)} parts; this service finds the "
                               f"optimum for at most {max_optimal_parts} (ask for rap or sim)")
     return assembly, method, int(seed), options
+
+
+def _upload_name(name: str | None) -> str:
+    """``name`` as a plain file name (its last path component; characters other than letters,
+    digits, ``._-`` and spaces become ``_``), or ``BadRequest`` without a known suffix."""
+    base = re.sub(r"[^\w. -]", "_", str(name or "").replace("\\", "/").rsplit("/", 1)[-1],
+                  flags=re.ASCII).strip(" .")[-100:]
+    suffix = Path(base).suffix.lower()
+    if not base or suffix not in UPLOAD_SUFFIXES or base.lower() == suffix:
+        what = f"name {name!r}" if name else "no name"
+        raise BadRequest(400, f"{what}: give the file's name, ending in "
+                              f"{', '.join(UPLOAD_SUFFIXES)} (e.g. ?name=part.dxf)")
+    return base
+
+
+def read_upload(name: str | None, body: bytes, *, max_parts: int = 64,
+                max_vertices: int = 20_000) -> Assembly:
+    """The validated assembly of an uploaded file named ``name`` (its suffix chooses the reader:
+    ``rap.io.load_assembly`` on a copy written under that name, so that an assembly without a
+    ``name`` is called after the file's stem), or ``BadRequest``: 400 with the reader's one line
+    (the temporary path replaced by ``name``), 413 past ``max_parts`` parts or ``max_vertices``
+    vertices in all."""
+    base = _upload_name(name)
+    with tempfile.TemporaryDirectory(prefix="rap-upload-") as tmp:
+        path = Path(tmp) / base
+        path.write_bytes(body)
+        try:
+            assembly = load_assembly(path)
+        except InputError as exc:  # AssemblyError and the drawing readers' errors: one line
+            raise BadRequest(400, str(exc).replace(str(path), base)) from None
+        except RecursionError:
+            raise BadRequest(400, f"{base}: nested too deeply") from None
+    if len(assembly) > max_parts:
+        raise BadRequest(413, f"{base}: {len(assembly)} parts; this service plans at most "
+                              f"{max_parts}")
+    vertices = sum(len(p.outer) + sum(map(len, p.holes)) for p in assembly.parts)
+    if vertices > max_vertices:
+        raise BadRequest(413, f"{base}: {vertices} vertices; this service reads at most "
+                              f"{max_vertices} in all")
+    return assembly

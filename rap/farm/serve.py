@@ -6,8 +6,14 @@ cluster unless ``workers``), all kept warm between requests. The replica asks fo
 runs on the head node, like Serve's HTTP proxy (``proxy_location="HeadOnly"``): on a cluster the
 service listens on ``host:port`` of the head node and the cache file lives there.
 
-Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``):
+Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs`` and ``/redoc``,
+whose Swagger UI and ReDoc files come from the fastapi-offline package, not a CDN: they work
+offline):
 
+* ``GET /``: the planning page (``rap/farm/static``: plain HTML, CSS and JS, no build step, no
+  other host): choose or drop a drawing or assembly file, see its parts and NDBG circle, plan with
+  a method and seed through ``POST /plan``, step through the plan as a storyboard, download the
+  plan JSON and the storyboard (PNG or SVG). Its requests carry the token typed in the page.
 * ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
   actor has started (before that, Serve answers 503 or the connection is refused).
 * ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
@@ -18,13 +24,20 @@ Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs``)
   or ``"feasible": null`` when the request's budget (simulations, seconds) ran out. The header
   ``X-Plan-Details`` carries ``{"eval_seconds", "stats"}`` (what ``plan --server`` prints besides
   the table).
+* ``POST /import?name=FILE``: the body is a file's bytes, a drawing (``.dxf``, ``.svg``) or an
+  assembly file (``.json``), read by ``rap.io.load_assembly`` as the CLI reads it
+  (``rap.farm.api.read_upload``); 200 with its assembly JSON (what ``rap-farm import`` writes).
+* ``POST /inspect?name=FILE``: the same, and its NDBG: ``{"assembly": <assembly JSON>, "cells":
+  [{"kind", "direction", "partitions"}]}`` (``inspect_document``), what the page draws.
 
 Bad requests get a 4xx status and ``{"error": "<one line>"}``: 400 for a body that is not JSON or
 not an object of those keys, an invalid assembly (the one-line ``AssemblyError`` text of the CLI,
 with ``assembly`` as the source), an unknown method or a seed that is not an integer; 413 for a
 body over ``max_body_bytes`` or an assembly of more than ``max_parts`` parts (``max_optimal_parts``
 for method optimal); 401 without the bearer token when one is set; 503 when reading the assembly
-takes over ``parse_budget_s`` or the answer over ``plan_budget_s + answer_grace_s``. Numbers are
+(or an uploaded file) takes over ``parse_budget_s`` or the answer (or ``/inspect``'s NDBG) over
+``plan_budget_s + answer_grace_s``. A bad upload (no ``name`` or another suffix, a bad drawing or
+assembly) is a 400 with the reader's one line, naming the file as the client did. Numbers are
 parsed as decimals, exactly as ``load_assembly`` reads a file, within ``rap.assembly.LIMITS``.
 Reading, validating and planning run on threads, never on the event loop, so ``/health`` answers
 throughout. A 500 is only for the service's own faults (a bug), with one line; the replica keeps
@@ -38,7 +51,8 @@ The request contract (``ServeConfig``, ``parse_plan_request``) lives in ``rap.fa
 imports neither ray nor fastapi.
 
 Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
-with a token every endpoint but the documentation needs ``Authorization: Bearer <token>``. The token
+with a token every endpoint but the documentation and the page's static files needs
+``Authorization: Bearer <token>`` (the page sends it on each of its requests). The token
 travels in clear text over plain HTTP: beyond one machine, put the service behind TLS (a reverse
 proxy) or on a private network, as docs/CLUSTER.md says.
 """
@@ -62,23 +76,27 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Callable
 
-from fastapi import FastAPI, Request, Security
+from fastapi import Query, Request, Security
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.responses import FileResponse, JSONResponse
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from fastapi.staticfiles import StaticFiles
+from fastapi_offline import FastAPIOffline
 from ray import serve
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from rap import __version__
+from rap.assembly import Assembly, assembly_to_json
 from rap.errors import InputError, RapError
 from rap.plan.methods import DEFAULT_METHOD, METHODS
 from rap.plan.scorers import Budget
 from rap.seeds import DEFAULT_ROOT_SEED
 
-from rap.farm.api import (DETAILS_HEADER, PLANNER_OPTIONS, BadRequest, ServeConfig,
-                          parse_plan_request)
+from rap.farm.api import (DETAILS_HEADER, PLANNER_OPTIONS, UPLOAD_SUFFIXES, BadRequest,
+                          ServeConfig, parse_plan_request, read_upload)
 
-__all__ = ["PlanningApp", "build_app", "run_service", "wait_healthy", "APP_NAME"]
+__all__ = ["PlanningApp", "build_app", "run_service", "wait_healthy", "inspect_document",
+           "APP_NAME", "STATIC_DIR"]
 
 APP_NAME = "rap-farm"
 _log = logging.getLogger("rap.farm.serve")
@@ -89,13 +107,23 @@ def _error(status: int, message: str, headers: dict | None = None) -> JSONRespon
     return JSONResponse({"error": line}, status_code=status, headers=headers)
 
 
-api = FastAPI(
+#: the planning page (index.html, app.js, app.css), served at / and /static/ without a token
+STATIC_DIR = Path(__file__).parent / "static"
+
+# FastAPIOffline: FastAPI whose /docs and /redoc load Swagger UI and ReDoc from files shipped in
+# the fastapi-offline package (served at /static/swagger/), not from a CDN: they work offline
+api = FastAPIOffline(
     title="rap-farm planning service",
     version=__version__,
     description="Robust assembly sequences of planar parts (RAP, simulator-only, optimal, random). "
                 "POST an assembly to /plan; the answer is the document `rap-farm plan --out` "
-                "writes. Errors are `{\"error\": \"one line\"}` with a 4xx/5xx status.",
+                "writes. POST a drawing (DXF, SVG) or an assembly file to /import or /inspect. "
+                "Errors are `{\"error\": \"one line\"}` with a 4xx/5xx status. The planning "
+                "page is at /.",
+    static_url="/static/swagger",
+    swagger_ui_parameters={"validatorUrl": None},  # no badge fetched from swagger.io
 )
+api.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 _bearer = HTTPBearer(auto_error=False, description="Needed when the service was started with a "
                                                    "token (always beyond loopback).")
 
@@ -124,6 +152,45 @@ _PLAN_BODY_SCHEMA = {
                   "413": {"description": "Body or assembly too large"},
                   "503": {"description": "Reading or planning past the request's time budget"}},
 }
+
+
+_UPLOAD_SCHEMA = {
+    "requestBody": {
+        "required": True,
+        "content": {"application/octet-stream": {"schema": {
+            "type": "string", "format": "binary",
+            "description": "The file's bytes, as they are on disk: a drawing (.dxf, .svg) or an "
+                           "assembly file (.json); the suffix of `name` says which"}}},
+    },
+    "responses": {"400": {"description": "No or unknown `name`, or a bad drawing or assembly "
+                                         "(one line naming the entity or part and the problem)"},
+                  "401": {"description": "Missing or wrong bearer token"},
+                  "413": {"description": "Body or assembly too large"},
+                  "503": {"description": "Reading (or, for /inspect, the NDBG) past its time "
+                                         "budget"}},
+}
+_NAME_HELP = f"The file's name; its suffix ({', '.join(UPLOAD_SUFFIXES)}) chooses the reader"
+
+
+@api.get("/", include_in_schema=False)
+async def page():
+    """The planning page (rap/farm/static): upload, NDBG circle, plan, storyboard."""
+    return FileResponse(STATIC_DIR / "index.html")
+
+
+def inspect_document(assembly: Assembly) -> dict:
+    """What ``POST /inspect`` answers: ``{"assembly": <assembly JSON>, "cells": [{"kind":
+    "vertex"|"arc", "direction": [dx, dy], "partitions": n}, ...]}``, the NDBG's cells CCW from
+    angle 0 (as ``rap-farm inspect --json``) with the number of partitions of the whole assembly
+    each admits (what ``rap-farm show`` shades its circle by, capped at 100,000)."""
+    from rap.geometry.ndbg import build_ndbg
+    from rap.geometry.partitions import cell_partition_counts
+
+    ndbg = build_ndbg(assembly)
+    counts = cell_partition_counts(ndbg, frozenset(assembly.ids))
+    return {"assembly": assembly_to_json(assembly),
+            "cells": [{"kind": c.kind, "direction": [c.unit[0], c.unit[1]], "partitions": n}
+                      for c, n in zip(ndbg.cells, counts)]}
 
 
 @api.exception_handler(StarletteHTTPException)
@@ -190,6 +257,63 @@ class PlanningApp:
                                   f"method sim")
         return parsed
 
+    def _read_upload(self, name: str | None, body: bytes) -> Assembly:
+        """``read_upload`` with this service's limits (runs on a reader thread)."""
+        return read_upload(name, body, max_parts=self.config.max_parts,
+                           max_vertices=self.config.max_vertices)
+
+    async def _body(self, request: Request) -> bytes | JSONResponse:
+        """The request's body, or the 413 answer when it is over ``max_body_bytes``."""
+        limit = self.config.max_body_bytes
+        length = request.headers.get("content-length")
+        if length is not None and (not length.isdigit() or int(length) > _DRAIN * limit):
+            return _error(413, f"request body over {limit} bytes")
+        body, size = bytearray(), 0
+        async for chunk in request.stream():  # a body a little too large is read and dropped,
+            size += len(chunk)  # so that the client, still sending, gets the 413 and no reset
+            if size <= limit:
+                body += chunk
+            elif size > _DRAIN * limit:
+                break
+        if size > limit:
+            return _error(413, f"request body over {limit} bytes")
+        return bytes(body)
+
+    async def _off_loop(self, executor, budget_s: float, late: str, what: str, fn, *args):
+        """``fn(*args)`` on ``executor``'s threads, never on the event loop: its value, or the
+        answer to send instead (``BadRequest``: its status; past ``budget_s``: 503 with ``late``;
+        ``InputError``: 400; any other error: 500, "``what`` failed: ...", one line, and the
+        replica keeps serving)."""
+        loop = asyncio.get_running_loop()
+        try:
+            return await asyncio.wait_for(loop.run_in_executor(executor, fn, *args),
+                                          timeout=budget_s)
+        except BadRequest as exc:
+            return _error(exc.status, exc.message)
+        except asyncio.TimeoutError:
+            return _error(503, late)
+        except RapError as exc:
+            return _error(400 if isinstance(exc, InputError) else 500, str(exc))
+        except Exception as exc:  # never a traceback to the client, never a dead replica
+            _log.exception("%s failed", what)
+            return _error(500, f"{what} failed: {type(exc).__name__}: {exc}")
+
+    async def _read_request(self, request: Request, creds: HTTPAuthorizationCredentials | None,
+                            what: str, fn, *args):
+        """Check the token, take the body (at most ``max_body_bytes``) and read it with
+        ``fn(*args, body)`` on a reader thread within ``parse_budget_s``: its value, or the answer
+        to send instead (``what`` names the thing read in the 503 and 500 lines)."""
+        denied = self._authorised(creds)
+        if denied is not None:
+            return denied
+        body = await self._body(request)
+        if isinstance(body, JSONResponse):
+            return body
+        budget = self.config.parse_budget_s
+        return await self._off_loop(self._readers, budget, f"{what} was not read and validated "
+                                    f"within {budget:g} s; send a smaller one", f"reading {what}",
+                                    fn, *args, body)
+
     def _plan(self, assembly, method: str, seed: int, options: dict):
         from rap.farm.service import PlanRequest
 
@@ -228,48 +352,49 @@ class PlanningApp:
     @api.post("/plan", summary="Plan a robust assembly sequence", openapi_extra=_PLAN_BODY_SCHEMA)
     async def plan(self, request: Request,
                    creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
-        denied = self._authorised(creds)
-        if denied is not None:
-            return denied
-        limit = self.config.max_body_bytes
-        length = request.headers.get("content-length")
-        if length is not None and (not length.isdigit() or int(length) > _DRAIN * limit):
-            return _error(413, f"request body over {limit} bytes")
-        body, size = bytearray(), 0
-        async for chunk in request.stream():  # a body a little too large is read and dropped,
-            size += len(chunk)  # so that the client, still sending, gets the 413 and no reset
-            if size <= limit:
-                body += chunk
-            elif size > _DRAIN * limit:
-                break
-        if size > limit:
-            return _error(413, f"request body over {limit} bytes")
-        loop = asyncio.get_running_loop()
-        try:  # reading and exact validation run off the event loop: /health keeps answering
-            assembly, method, seed, options = await asyncio.wait_for(
-                loop.run_in_executor(self._readers, self._read, bytes(body)),
-                timeout=self.config.parse_budget_s)
-        except BadRequest as exc:
-            return _error(exc.status, exc.message)
-        except asyncio.TimeoutError:
-            return _error(503, f"the assembly was not read and validated within "
-                               f"{self.config.parse_budget_s:g} s; send a smaller one")
-        try:
-            result = await asyncio.wait_for(
-                loop.run_in_executor(self._executor, self._plan, assembly, method, seed, options),
-                timeout=self.config.plan_budget_s + self.config.answer_grace_s)
-        except asyncio.TimeoutError:
-            return _error(503, f"planning took longer than its budget of "
-                               f"{self.config.plan_budget_s:g} s; ask with fewer simulations")
-        except RapError as exc:
-            return _error(400 if isinstance(exc, InputError) else 500, str(exc))
-        except Exception as exc:  # never a traceback to the client, never a dead replica
-            _log.exception("planning %s with %s failed", assembly.name, method)
-            return _error(500, f"planning failed: {type(exc).__name__}: {exc}")
+        # reading and exact validation run off the event loop: /health keeps answering
+        read = await self._read_request(request, creds, "the assembly", self._read)
+        if isinstance(read, JSONResponse):
+            return read
+        assembly, method, seed, options = read
+        result = await self._off_loop(
+            self._executor, self.config.plan_budget_s + self.config.answer_grace_s,
+            f"planning took longer than its budget of {self.config.plan_budget_s:g} s; ask with "
+            f"fewer simulations", f"planning {assembly.name} with {method}", self._plan, assembly,
+            method, seed, options)
+        if isinstance(result, JSONResponse):
+            return result
         self.served += 1
         details = json.dumps({"eval_seconds": result.eval_seconds, "stats": result.stats},
                              default=str, separators=(",", ":"))
         return JSONResponse(result.to_json(), headers={DETAILS_HEADER: details})
+
+    @api.post("/import", summary="An assembly from a drawing (DXF, SVG) or an assembly file",
+              openapi_extra=_UPLOAD_SCHEMA)
+    async def import_drawing(self, request: Request,
+                             name: str | None = Query(None, description=_NAME_HELP),
+                             creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        """The body is the file's bytes; 200 with the assembly JSON that ``rap-farm import``
+        writes (read exactly, validated), ready for ``POST /plan``."""
+        got = await self._read_request(request, creds, str(name), self._read_upload, name)
+        return got if isinstance(got, JSONResponse) else JSONResponse(assembly_to_json(got))
+
+    @api.post("/inspect", summary="A drawing's or assembly file's parts and NDBG cells",
+              openapi_extra=_UPLOAD_SCHEMA)
+    async def inspect(self, request: Request,
+                      name: str | None = Query(None, description=_NAME_HELP),
+                      creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        """As ``/import``, and the NDBG: 200 with ``{"assembly": <assembly JSON>, "cells":
+        [{"kind", "direction", "partitions"}]}`` (``inspect_document``), what the planning page
+        draws."""
+        got = await self._read_request(request, creds, str(name), self._read_upload, name)
+        if isinstance(got, JSONResponse):
+            return got
+        budget = self.config.plan_budget_s + self.config.answer_grace_s
+        doc = await self._off_loop(self._executor, budget, f"the NDBG of {got.name} was not built "
+                                   f"within {budget:g} s", f"the NDBG of {got.name}",
+                                   inspect_document, got)
+        return doc if isinstance(doc, JSONResponse) else JSONResponse(doc)
 
     def __del__(self):
         try:
