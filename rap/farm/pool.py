@@ -167,7 +167,8 @@ class SimPool:
         self._refs: dict[str, Any] = {}  # geometry hash -> ObjectRef of the Assembly
         self._next_task = 0
         self._per_op_s: float | None = None  # moving average of task seconds per operation
-        self._last_demand = time.monotonic()  # the last time a caller had work queued
+        self._last_demand = time.monotonic()  # when the last caller stopped having work queued
+        self._demanding = 0  # callers (streams, ready) that have work queued now
         self._followed = 0.0  # workers=None: when the free CPUs were last read
         self._last_death = ""  # why the last actor died for good (for the error of a dead pool)
         self.stats = {"tasks": 0, "resubmitted": 0, "replaced": 0, "ops": 0, "sim_s": 0.0,
@@ -328,7 +329,7 @@ class SimPool:
             return 0
         now = time.monotonic()
         with self._lock:
-            quiet = now - self._last_demand >= self.idle_timeout_s
+            quiet = not self._demanding and now - self._last_demand >= self.idle_timeout_s
             gone = [k for k, a in self._actors.items()
                     if quiet and a.load == 0 and now - a.idle_since >= self.idle_timeout_s]
             victims = [self._actors.pop(k) for k in gone]
@@ -344,10 +345,18 @@ class SimPool:
         they have not within ``timeout_s``: Ray starts workers at a low priority, so on cores that
         other jobs keep busy (or a cluster without free CPUs that adds none) they may not start."""
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        demand = [False]
+        self._want(True, demand)  # a caller waiting for workers wants them
+        try:
+            return self._ready(deadline, timeout_s, at_least)
+        finally:
+            self._want(False, demand)
+
+    def _ready(self, deadline: float | None, timeout_s: float | None,
+               at_least: int | None) -> list[dict]:
         while True:
             self._poll()
             with self._lock:
-                self._last_demand = time.monotonic()  # a caller waiting for workers wants them
                 n, started = len(self._actors), self._started
             if n == 0:
                 raise FarmError(f"the simulation workers could not start: {self._last_death}")
@@ -435,11 +444,20 @@ class SimPool:
                 if a.load == 0:
                     a.idle_since = time.monotonic()
 
-    def _demand(self, fresh: bool, retrying: bool) -> None:
-        """A caller has work queued: keep the actors, and ask for more when it is fresh input (a
-        retried batch only needs one actor to exist)."""
+    def _want(self, on: bool, state: list[bool]) -> None:
+        """Count a caller (``state[0]``: whether it counts now) among those with work queued: while
+        any has, no actor is idle."""
+        if on == state[0]:
+            return
         with self._lock:
+            self._demanding += 1 if on else -1
             self._last_demand = time.monotonic()
+        state[0] = on
+
+    def _demand(self, fresh: bool, retrying: bool) -> None:
+        """A caller has work queued: ask for more actors when it is fresh input (a retried batch
+        only needs one actor to exist)."""
+        with self._lock:
             empty = not self._actors
             dead = self.stats["replaced"]
         if fresh:
@@ -472,6 +490,7 @@ class SimPool:
         in_flight: dict[Any, tuple[SimTask, int, int]] = {}
         retry: deque[tuple[SimTask, int, int | None]] = deque()  # (task, attempt, actor to avoid)
         idle_since: float | None = None  # since when work has waited with no started actor
+        demand = [False]  # whether this call counts among the pool's callers with work queued
 
         def next_task() -> SimTask | None:
             nonlocal exhausted, submitted
@@ -516,6 +535,7 @@ class SimPool:
             while True:
                 self._poll()
                 fresh = bool(head) or not exhausted
+                self._want(fresh or bool(retry), demand)
                 if fresh or retry:
                     self._demand(fresh, bool(retry))
                 cap = self._started * self.per_worker_in_flight
@@ -573,6 +593,7 @@ class SimPool:
                     self._account(res)
                     yield res
         finally:
+            self._want(False, demand)
             for ref in in_flight:
                 try:
                     ray.cancel(ref)
@@ -629,6 +650,7 @@ class SimPool:
         d["_refs"] = {}
         d["_actors"] = {k: _Actor(a.handle) for k, a in self._actors.items()}
         d["_started"] = 0
+        d["_demanding"] = 0
         return d
 
     def __setstate__(self, d):

@@ -62,7 +62,7 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def _config(gcs: str, max_workers: int, head_cpus: int, worker_cpus: int,
+def _config(gcs: str, max_workers: int, min_workers: int, head_cpus: int, worker_cpus: int,
             idle_timeout_minutes: float) -> str:
     """The autoscaling config (YAML is a superset of JSON; the launcher's fields are all given)."""
     import json
@@ -79,7 +79,8 @@ def _config(gcs: str, max_workers: int, head_cpus: int, worker_cpus: int,
                                  "max_workers": 0},
             "ray.worker.cpu": {"resources": {"CPU": worker_cpus,
                                              "object_store_memory": 100 * 1024 ** 2},
-                               "node_config": {}, "min_workers": 0, "max_workers": max_workers},
+                               "node_config": {}, "min_workers": min_workers,
+                               "max_workers": max_workers},
         },
         "head_node_type": "ray.head.default",
         "auth": {}, "docker": {}, "file_mounts": {}, "cluster_synced_files": [],
@@ -116,12 +117,15 @@ def _cmdline(pid: int | str) -> list[str]:
 
 
 class FakeCluster:
-    """See the module docstring. ``gate_nodes``/``pause_s`` configure ``GATED`` on its workers."""
+    """See the module docstring. ``min_workers``: worker nodes the autoscaler keeps (started at
+    once); ``gate_nodes``/``pause_s`` configure ``GATED`` on its workers."""
 
-    def __init__(self, max_workers: int = 3, *, head_cpus: int = 1, worker_cpus: int = 1,
+    def __init__(self, max_workers: int = 3, *, min_workers: int = 0, head_cpus: int = 1,
+                 worker_cpus: int = 1,
                  idle_timeout_minutes: float = 0.1, dashboard: bool = False,
                  gate_nodes: int = 0, pause_s: float = 0.0, env: dict | None = None):
-        self.max_workers, self.head_cpus, self.worker_cpus = max_workers, head_cpus, worker_cpus
+        self.max_workers, self.min_workers = max_workers, min_workers
+        self.head_cpus, self.worker_cpus = head_cpus, worker_cpus
         self.idle_timeout_minutes = idle_timeout_minutes
         self.dashboard = dashboard
         self.id = uuid.uuid4().hex
@@ -148,8 +152,8 @@ class FakeCluster:
     # -- life cycle ---------------------------------------------------------------------------------
     def start(self, timeout_s: float = 120.0) -> "FakeCluster":
         cfg = self.tmp / "autoscaling.yaml"
-        cfg.write_text(_config(self.address, self.max_workers, self.head_cpus, self.worker_cpus,
-                               self.idle_timeout_minutes))
+        cfg.write_text(_config(self.address, self.max_workers, self.min_workers, self.head_cpus,
+                               self.worker_cpus, self.idle_timeout_minutes))
         cmd = [RAY, "start", "--head", f"--autoscaling-config={cfg}", "--port", str(self.port),
                "--node-ip-address", "127.0.0.1", "--num-cpus", str(self.head_cpus),
                "--temp-dir", str(self.tmp / "ray"), "--disable-usage-stats", "--block",
@@ -223,6 +227,19 @@ class FakeCluster:
         self.stop()
 
     # -- looking at it (Ray connected to this cluster in the calling process) ------------------------
+    def connect(self) -> None:
+        """``ray.init`` in this process against the cluster, with token authentication. Ray turns
+        token mode on by itself only for a cluster it finds without an address; with one, it
+        takes ``RAY_AUTH_MODE`` as its config read it, so this sets it and reloads the config,
+        as Ray does for a local cluster (``_enable_token_auth``)."""
+        import ray
+        from ray._private.authentication.authentication_token_setup import _enable_token_auth
+
+        if "RAY_AUTH_TOKEN" in self.env:  # else both read ~/.ray/auth_token
+            os.environ.setdefault("RAY_AUTH_TOKEN", self.env["RAY_AUTH_TOKEN"])
+        _enable_token_auth()
+        ray.init(address=self.address, log_to_driver=False, logging_level="ERROR")
+
     @staticmethod
     def alive_nodes() -> list[dict]:
         import ray

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
+import time
 
 import numpy as np
 import pytest
@@ -112,3 +113,45 @@ def test_workers_that_cannot_start_are_one_clear_error(ray_local):
         with pytest.raises(FarmError, match="1 of 1 simulation workers did not start within 1 s"):
             pool.ready(timeout_s=1.0)
         assert FarmError.exit_code == 3
+
+
+def test_elastic_start_on_what_runs_and_pending_actors_wait(ray_local, grid):
+    """Three actors asked for on two CPUs: labelling starts on the first one, the third stays a
+    pending demand (what the autoscaler sees) and never blocks the run."""
+    from rap.farm.pool import SimPool
+
+    params = SimParams(trials=2)
+    ops = standin.operations(grid)
+    with SimPool(3, backend=FAKE, batch_size=2) as pool:
+        assert len(pool.ready(timeout_s=60, at_least=1)) >= 1
+        keys = [r["key"] for res in pool.stream(SimPool.jobs(grid, ops, params, 5), params,
+                                                images=False) for r in res.rows]
+        assert sorted(keys) == sorted(set(keys)) and len(keys) == len(ops)
+        pool.ready(timeout_s=60, at_least=2)
+        assert pool.size == 3 and pool.started == 2  # the third is still pending
+
+
+def test_idle_actors_are_released_and_the_pool_grows_again(ray_local, grid):
+    from rap.farm.pool import SimPool
+
+    params = SimParams(trials=2)
+    ops = standin.operations(grid)[:8]
+    with SimPool(2, backend=FAKE, idle_timeout_s=0.5) as pool:
+        first = {r["key"]: r["successes"] for res in pool.stream(
+            SimPool.jobs(grid, ops, params, 5), params, images=False) for r in res.rows}
+        deadline = time.monotonic() + 60
+        while pool.size and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert pool.size == 0 and pool.stats["retired"] == 2  # both released, nothing pending
+        again = {r["key"]: r["successes"] for res in pool.stream(
+            SimPool.jobs(grid, ops, params, 5), params, images=False) for r in res.rows}
+        assert again == first and pool.stats["actors"] >= 3  # asked for actors again
+
+
+def test_no_worker_for_stall_timeout_is_one_clear_error(ray_local, grid):
+    from rap.farm.pool import FarmError, SimPool
+
+    params = SimParams(trials=2)
+    with SimPool(1, backend=FAKE, cpus_per_worker=1000.0, stall_timeout_s=1.0) as pool:
+        with pytest.raises(FarmError, match="no simulation worker has been running for 1 s"):
+            list(pool.stream(SimPool.jobs(grid, standin.operations(grid)[:2], params, 5), params))
