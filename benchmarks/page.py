@@ -9,8 +9,10 @@ Printed per file: the seconds from choosing the file to the plan shown, as the p
 them (``performance.now()``: reading and NDBG on the service, drawing, planning, storyboard)
 and as the driver sees them (upload to the page's "planned" state), median, min and max.
 
-The files: ``--files`` (default: the 7-part tangram, ``assemblies/unseen/tangram.json``, and a
-7-part DXF drawing with arcs, written here with ezdxf, when ``rap.cad`` is present).
+The files: ``--files`` (default: the 7-part tangram, ``assemblies/unseen/tangram.json``, and,
+when ``rap.cad`` is present, two 7-part DXF drawings with arcs written with ezdxf: ``seven.dxf``
+of tests/cad/fixtures.py, blocks with arc joints in a tray, a cap and two discs, and ``pegs.dxf``
+of tests/farm/test_page.py, round-ended pegs in round notches under notched caps).
 
     python benchmarks/page.py [--runs 5] [--method search] [--trials 100] [--workers N]
                               [--files a.json,b.dxf] [--url URL --token T]
@@ -42,7 +44,9 @@ def _files(arg: str | None, tmp: Path) -> list[Path]:
         return [Path(f) for f in arg.split(",")]
     files = [ROOT / "assemblies" / "unseen" / "tangram.json"]
     if importlib.util.find_spec("rap.cad") is not None:
-        files.append(seven_part_dxf(tmp / "pegs.dxf"))
+        from tests.cad.fixtures import dxf_seven
+
+        files += [dxf_seven(tmp), seven_part_dxf(tmp / "pegs.dxf")]
     return files
 
 

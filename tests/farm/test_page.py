@@ -31,7 +31,7 @@ from rap.plan.result import PlanResult
 from rap.plan.validate import check_plan
 
 from tests.farm.conftest import ASSEMBLIES, ROOT
-from tests.farm.test_serve import TOKEN, _body, _call, _same_plan, service  # noqa: F401
+from tests.farm.test_serve import DOVETAIL, TOKEN, _body, _call, _same_plan, service  # noqa: F401
 
 pytestmark = [pytest.mark.ray, pytest.mark.slow]
 
@@ -122,6 +122,20 @@ def test_import_and_inspect_read_an_assembly_file_as_the_cli_does(service):
     unnamed.pop("name")  # an assembly without a name is called after the uploaded file
     status, doc, _ = _upload(service, "/import?name=my%20tangram.json", json.dumps(unnamed).encode())
     assert status == 200 and doc["name"] == "my tangram"
+
+
+def test_import_reads_an_svg_drawing(service):
+    if importlib.util.find_spec("rap.cad") is None:
+        pytest.skip("rap.cad (the DXF/SVG importer of issue 29) is not in this checkout yet")
+    svg = ('<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="10mm" '
+           'viewBox="0 0 20 10"><rect id="left" x="0" y="0" width="10" height="10"/>'
+           '<rect id="right" x="10" y="0" width="10" height="10"/></svg>')
+    status, doc, _ = _upload(service, "/import?name=two.svg", svg.encode())
+    assert status == 200, doc
+    assert doc["name"] == "two" and len(doc["parts"]) == 2
+    status, doc, _ = _upload(service, "/import?name=bare.svg", svg.replace('width="20mm" '
+                             'height="10mm" ', "").encode())
+    assert status == 400 and doc["error"].startswith("bare.svg: ") and "units" in doc["error"]
 
 
 BAD_UPLOADS = [
@@ -274,6 +288,23 @@ def test_the_page_needs_the_token_like_the_api(page, service):
     assert _wait(page, "planned", "error") == "error"
     assert "bearer token" in page.inner_text("#message")
     assert page.is_hidden("#assembly-section")
+
+
+def test_the_page_says_what_is_wrong_in_one_line(page, service, tmp_path):
+    """A file that does not read: the service's line; an interlocked assembly: no storyboard,
+    the interlocked parts named."""
+    open_page(page, service)
+    bad = tmp_path / "broken.json"
+    bad.write_text("{\"parts\": [")
+    page.set_input_files("#file", str(bad))
+    assert _wait(page, "planned", "error") == "error"
+    assert page.inner_text("#message").startswith("broken.json: not valid JSON")
+    dovetail = tmp_path / "dovetail.json"
+    dovetail.write_text(json.dumps(DOVETAIL))
+    page.set_input_files("#file", str(dovetail))
+    assert _wait(page, "planned", "error") == "planned"
+    assert "the subassembly {mortise, tenon} is interlocked" in page.inner_text("#plan-status")
+    assert page.is_hidden("#story-section") and page.is_hidden("#message")
 
 
 def test_the_page_shows_the_plan_the_api_gives(page, service, tmp_path):
