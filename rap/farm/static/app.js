@@ -25,8 +25,9 @@
   const SOURCE_TEXT = { cnn: "model", sim: "simulator", random: "random" };
   const PLAY_MS = 1400;
 
-  const state = { name: null, inspected: null, geom: null, plan: null, details: null,
-    step: 0, timer: null, fileAt: null };
+  // gen: bumped by every file and plan asked for, so that a late answer to an older one is dropped
+  const state = { inspected: null, geom: null, plan: null, details: null,
+    step: 0, timer: null, fileAt: null, gen: 0 };
 
   // -- requests -----------------------------------------------------------------------------------
   function token() { return sessionStorage.getItem(TOKEN_KEY) || ""; }
@@ -256,10 +257,10 @@
 
   // -- the file -------------------------------------------------------------------------------------
   async function readFile(file) {
+    const gen = ++state.gen;
     stop();
     say("");
     state.fileAt = performance.now();
-    state.name = file.name;
     state.plan = null;
     state.inspected = null;
     $("plan").disabled = true;
@@ -271,12 +272,14 @@
       const body = await file.arrayBuffer();
       const { doc } = await request("/inspect?name=" + encodeURIComponent(file.name), {
         method: "POST", body, headers: { "Content-Type": "application/octet-stream" } });
+      if (gen !== state.gen) return;
       state.inspected = doc;
       showAssembly(doc);
       $("file-status").textContent = `${file.name}: ${doc.assembly.parts.length} parts, ` +
         `${doc.cells.length} NDBG cells`;
       setState("inspected");
     } catch (e) {
+      if (gen !== state.gen) return;
       $("file-status").textContent = `${file.name}: not read`;
       say(e.message);
       setState("error");
@@ -290,6 +293,7 @@
     if (!state.inspected) return;
     const seed = $("seed").value.trim();
     if (!/^-?[0-9]+$/.test(seed)) { say(`seed ${JSON.stringify(seed)}: must be an integer`); return; }
+    const gen = ++state.gen;
     stop();
     say("");
     setState("planning");
@@ -302,13 +306,14 @@
     try {
       const { doc, headers } = await request("/plan", { method: "POST", body,
         headers: { "Content-Type": "application/json" } });
-      let details = null;
-      try { details = JSON.parse(headers.get("X-Plan-Details") || "null"); } catch (e) { details = null; }
+      if (gen !== state.gen) return;
+      try { state.details = JSON.parse(headers.get("X-Plan-Details") || "null"); }
+      catch (e) { state.details = null; }
       state.plan = doc;
-      state.details = details;
       showPlan(doc, (performance.now() - asked) / 1000);
       setState("planned");
     } catch (e) {
+      if (gen !== state.gen) return;
       $("plan-status").textContent = "";
       say(e.message);
       setState("error");
@@ -332,8 +337,10 @@
       return;
     }
     const r = doc.robustness === null ? "?" : doc.robustness.toFixed(3);
+    const evaluated = state.details && typeof state.details.eval_seconds === "number"
+      ? `, evaluated by the simulator in ${state.details.eval_seconds.toFixed(2)} s` : "";
     $("plan-status").textContent = `${doc.method} plan of ${doc.assembly}: robustness R = ${r} ` +
-      `over ${doc.steps.length} steps, planned in ${doc.seconds.toFixed(2)} s; ${timing}`;
+      `over ${doc.steps.length} steps, planned in ${doc.seconds.toFixed(2)} s${evaluated}; ${timing}`;
     const tbody = $("steps").querySelector("tbody");
     tbody.textContent = "";
     doc.steps.forEach((st, k) => {
