@@ -19,4 +19,14 @@ if ! python -c "import torch" >/dev/null 2>&1; then
   fi
 fi
 python -m pip install -q -e ".${extra}"
+# the planning page's browser tests drive Debian's chromium through Playwright (its own browser
+# download does not work offline); without it they skip and say so
+if [ -n "$extra" ] && ! command -v chromium >/dev/null 2>&1; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) \
+      || echo "no chromium: the browser tests will skip"
+  else
+    echo "no chromium (apt-get install chromium as root): the browser tests will skip"
+  fi
+fi
 echo "rap-farm installed: $(command -v rap-farm)"
