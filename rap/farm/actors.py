@@ -8,12 +8,17 @@ are built inside the worker by the simulator; nothing live crosses the wire. A t
 ``BatchResult``: one row per operation in the dataset schema (``rap.dataset.SCHEMA``) plus timings.
 
 The simulator and renderer are looked up by import path (``Backend``), so the same actor serves the
-real physics (the default) and anything with the same signatures.
+real physics (the default) and anything with the same signatures. The backend's warm-up (loading
+the compiled simulator: seconds on a busy machine) runs on a thread of the actor, so the actor
+answers ``info`` (the pool's readiness probe) as soon as its process is up, and its first task
+waits for the warm-up instead: ``rap-farm label --start-timeout`` counts until a worker runs, not
+until its simulator is loaded.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -76,13 +81,29 @@ class SimWorker:
         self._assemblies: OrderedDict[str, Any] = OrderedDict()
         self._node = node_label()
         self._pid = os.getpid()
-        self._warm_s = resolve(backend.warm_up)() if getattr(backend, "warm_up", "") else 0.0
+        self._warm_s = 0.0
+        self._warm_error: BaseException | None = None
+        self._warming: threading.Thread | None = None
+        if getattr(backend, "warm_up", ""):
+            self._warming = threading.Thread(target=self._warm_up, name="warm-up", daemon=True)
+            self._warming.start()
+
+    def _warm_up(self) -> None:
+        try:
+            self._warm_s = resolve(self._backend.warm_up)()
+        except BaseException as exc:  # raised again by the first task, where the pool sees it
+            self._warm_error = exc
 
     def info(self) -> dict:
-        """Where this worker runs (also a readiness probe)."""
+        """Where this worker runs (also a readiness probe; ``warm_up_s`` is 0 while warming)."""
         return {"node": self._node, "pid": self._pid, "warm_up_s": self._warm_s}
 
     def _functions(self, images: bool):
+        if self._warming is not None:
+            self._warming.join()
+            self._warming = None
+        if self._warm_error is not None:
+            raise self._warm_error
         if self._simulate is None:
             self._simulate = resolve(self._backend.simulate)
         if images and self._render is None:

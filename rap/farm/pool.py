@@ -2,7 +2,7 @@
 
 Usage (Ray already initialised, e.g. inside ``rap.farm.runtime.connect()``)::
 
-    pool = SimPool(workers=4)                          # up to 4 actors, one CPU each, spread over nodes
+    pool = SimPool(workers=4)                          # up to 4 actors of one CPU, spread over nodes
     pool.ready(timeout_s=120, at_least=1)              # wait for one actor, not for all of them
     results = pool.score(assembly, ops, params, root_seed)       # list[Scored], input order
     for batch in pool.stream(pool.jobs(assembly, ops, params, root_seed)):   # completion order
@@ -49,9 +49,9 @@ Elasticity (the pool on an autoscaling cluster):
 Why not Ray Data's autoscaling actor pool (``map_batches`` with ``ActorPoolStrategy(min_size,
 max_size)``), which does the same growing and shrinking: the planning service needs a warm pool
 that answers many small concurrent batches in input order within milliseconds, and a Ray Data
-execution starts its own executor and actor pool per dataset; the driver needs resume by key, per-assembly
-failure isolation and bounded memory on lazily selected operations, which ``stream`` has. One
-pool for both keeps one code path for labels, so the elastic behaviour is built here.
+execution starts its own executor and actor pool per dataset; the driver needs resume by key,
+per-assembly failure isolation and bounded memory on lazily selected operations, which ``stream``
+has. One pool for both keeps one code path for labels, so the elastic behaviour is built here.
 """
 
 from __future__ import annotations
@@ -174,7 +174,8 @@ class SimPool:
         self.stats = {"tasks": 0, "resubmitted": 0, "replaced": 0, "ops": 0, "sim_s": 0.0,
                       "render_s": 0.0, "task_s": 0.0, "actors": 0, "retired": 0,
                       "peak_workers": 0}
-        self._grow(self.max_workers or max(1, int(cluster_cpus() // max(self.cpus_per_worker, 1e-9))))
+        per_cpu = max(self.cpus_per_worker, 1e-9)
+        self._grow(self.max_workers or max(1, int(cluster_cpus() // per_cpu)))
         self._start_reaper()
 
     # -- lifecycle ---------------------------------------------------------------------------------

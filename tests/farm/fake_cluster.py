@@ -51,9 +51,9 @@ __all__ = ["FakeCluster", "GATED", "free_port", "gated_simulate"]
 RAY = str(Path(sys.executable).with_name("ray"))
 MARK = "RAP_FAKE_CLUSTER_ID"
 
-#: the real simulator (and renderer) behind the gate described in the module docstring
+#: the real simulator (renderer, warm-up) behind the gate described in the module docstring
 GATED = Backend(simulate="tests.farm.fake_cluster:gated_simulate",
-                render="rap.render.images:render_pair", warm_up="")
+                render="rap.render.images:render_pair", warm_up="rap.sim.simulator:warm_up")
 
 
 def free_port() -> int:
@@ -136,20 +136,21 @@ class FakeCluster:
         self.dashboard_url = f"http://127.0.0.1:{self.dashboard_port}"
         self.gate_file = self.tmp / "gate-open"
         base = dict(os.environ if env is None else env)
-        base["PYTHONPATH"] = os.pathsep.join([str(ROOT), base.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+        path = [str(ROOT), base.get("PYTHONPATH", "")]
+        base["PYTHONPATH"] = os.pathsep.join(path).rstrip(os.pathsep)
         base["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), base.get("PATH", "")])
         base.update(RAY_AUTH_MODE="token", RAY_USAGE_STATS_ENABLED="0")
         base.pop("RAY_ADDRESS", None)
         #: the environment of a client of this cluster (driver, ``ray job submit``, ``ray status``)
         self.env = base
         self._cluster_env = dict(base, RAY_FAKE_CLUSTER="1", RAP_TEST_GATE_NODES=str(gate_nodes),
-                                 RAP_TEST_PAUSE_S=str(pause_s), RAP_TEST_GATE_FILE=str(self.gate_file),
-                                 **{MARK: self.id})
+                                 RAP_TEST_PAUSE_S=str(pause_s),
+                                 RAP_TEST_GATE_FILE=str(self.gate_file), **{MARK: self.id})
         self.head: subprocess.Popen | None = None
         self._stopped = False
         atexit.register(self.stop)
 
-    # -- life cycle ---------------------------------------------------------------------------------
+    # -- life cycle ------------------------------------------------------------------------------
     def start(self, timeout_s: float = 120.0) -> "FakeCluster":
         cfg = self.tmp / "autoscaling.yaml"
         cfg.write_text(_config(self.address, self.max_workers, self.min_workers, self.head_cpus,
@@ -162,8 +163,8 @@ class FakeCluster:
                "--ray-client-server-port", str(free_port()),
                "--dashboard-agent-listen-port", str(free_port())]
         log = open(self.tmp / "head.log", "wb")
-        self.head = subprocess.Popen(cmd, env=self._cluster_env, stdout=log, stderr=subprocess.STDOUT,
-                                     start_new_session=True)
+        self.head = subprocess.Popen(cmd, env=self._cluster_env, stdout=log,
+                                     stderr=subprocess.STDOUT, start_new_session=True)
         log.close()
         deadline = time.monotonic() + timeout_s
         while not self._answers():
@@ -226,7 +227,7 @@ class FakeCluster:
     def __exit__(self, *exc) -> None:
         self.stop()
 
-    # -- looking at it (Ray connected to this cluster in the calling process) ------------------------
+    # -- looking at it (Ray connected to this cluster in the calling process) --------------------
     def connect(self) -> None:
         """``ray.init`` in this process against the cluster, with token authentication. Ray turns
         token mode on by itself only for a cluster it finds without an address; with one, it
@@ -277,7 +278,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
-# -- the gated simulator (runs in the cluster's workers) -----------------------------------------------
+# -- the gated simulator (runs in the cluster's workers) -----------------------------------------
 def _wait_for_gate() -> None:
     gate = os.environ.get("RAP_TEST_GATE_FILE", "")
     nodes = int(os.environ.get("RAP_TEST_GATE_NODES", "0") or 0)

@@ -155,3 +155,18 @@ def test_no_worker_for_stall_timeout_is_one_clear_error(ray_local, grid):
     with SimPool(1, backend=FAKE, cpus_per_worker=1000.0, stall_timeout_s=1.0) as pool:
         with pytest.raises(FarmError, match="no simulation worker has been running for 1 s"):
             list(pool.stream(SimPool.jobs(grid, standin.operations(grid)[:2], params, 5), params))
+
+
+def test_a_failing_warm_up_fails_the_first_batch_in_one_line(ray_local, grid):
+    """The warm-up runs on a thread of the actor (it answers its probe at once); its error comes
+    back with the first task."""
+    from rap.farm.actors import Backend
+    from rap.farm.pool import FarmError, SimPool
+
+    params = SimParams(trials=2)
+    broken = Backend(simulate=FAKE.simulate, render=FAKE.render,
+                     warm_up="tests.farm.standin:nothing")
+    with SimPool(1, backend=broken) as pool:
+        pool.ready(timeout_s=60)
+        with pytest.raises(FarmError, match="has no attribute 'nothing'"):
+            list(pool.stream(SimPool.jobs(grid, standin.operations(grid)[:2], params, 5), params))
