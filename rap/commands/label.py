@@ -27,8 +27,11 @@ def label(
         None, "--address",
         help="Join a Ray cluster: 'auto' or HOST:PORT (default: $RAY_ADDRESS, else start a local Ray "
              "with all cores)."),
-    workers: Optional[int] = typer.Option(None, "--workers", "-w",
-                                          help="Simulation actors (default: every CPU of the cluster)."),
+    workers: Optional[int] = typer.Option(
+        None, "--workers", "-w",
+        help="The most simulation actors (one CPU each) to ask for: labelling starts on the first "
+             "that runs, and an autoscaling cluster adds nodes for the rest (default: every CPU "
+             "of the cluster, and those that join later; nothing asked of an autoscaler)."),
     preset: str = typer.Option("default", "--preset", help=PRESET_HELP),
     trials: Optional[int] = typer.Option(None, "--trials", help="Noisy trials per operation."),
     seed: int = typer.Option(DEFAULT_ROOT_SEED, "--seed", help="Root seed of the run."),
@@ -46,8 +49,9 @@ def label(
     flush_seconds: float = typer.Option(30.0, "--flush-seconds", help="...or every T seconds."),
     start_timeout: float = typer.Option(
         120.0, "--start-timeout", min=1.0,
-        help="Seconds the simulation workers may take to start (a cluster that adds nodes on "
-             "demand needs minutes) before the run ends with exit status 3."),
+        help="Seconds until at least one simulation worker runs (a head without CPUs waits for "
+             "a node: minutes on a cloud) before the run ends with exit status 3; also how long "
+             "a run may go on with no worker left (all nodes lost)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Label operations (simulated success rate + start/goal images) into a Parquet dataset."""
