@@ -72,13 +72,14 @@
     const { doc } = await request("/openapi.json");
     const props = doc.paths["/plan"].post.requestBody.content["application/json"].schema.properties;
     const select = $("method");
+    const chosen = select.value; // read again (a new token): keep what the user chose meanwhile
     select.textContent = "";
     for (const m of props.method.enum) {
       const o = document.createElement("option");
       o.value = o.textContent = m;
       select.appendChild(o);
     }
-    select.value = props.method.default;
+    select.value = props.method.enum.includes(chosen) ? chosen : props.method.default;
     if (!$("seed").value) $("seed").value = String(props.seed.default);
   }
 
