@@ -49,7 +49,10 @@ Elasticity (the pool on an autoscaling cluster):
 Why not Ray Data's autoscaling actor pool (``map_batches`` with ``ActorPoolStrategy(min_size,
 max_size)``), which does the same growing and shrinking: the planning service needs a warm pool
 that answers many small concurrent batches in input order within milliseconds, and a Ray Data
-execution starts its own executor and actor pool per dataset; the driver needs resume by key,
+execution starts its own executor and actor pool per dataset (measured on a local Ray of 2 CPUs,
+8 operations of 100 ms on 2 workers, ideal 0.40 s: Ray Data's pool 10.4 s the first time and
+4.9 s per batch after, a warm ``SimPool`` 0.52 s; ``python benchmarks/farm_scale.py
+--max-workers 2 --ops-per-worker 10 --ray-data``); the driver needs resume by key,
 per-assembly failure isolation and bounded memory on lazily selected operations, which ``stream``
 has. One pool for both keeps one code path for labels, so the elastic behaviour is built here.
 """
