@@ -32,6 +32,9 @@ Elasticity (the pool on an autoscaling cluster):
   ``workers=N`` the pool asks for N actors (the maximum); with ``workers=None`` it takes one actor
   per CPU of the cluster and adds one for every CPU that joins or frees up later, without asking
   for nodes (so two elastic pools on one cluster do not ask the autoscaler for each other's CPUs).
+  Pending actors rather than ``ray.autoscaler.sdk.request_resources``: a resource request stays
+  until it is replaced and keeps its nodes up while nothing runs on them, whereas an actor's
+  demand goes with the actor, when the pool releases it or its process ends.
 * **Use nodes as they join.** A pending actor that starts (its node joined) gets work at once: the
   pool waits on the actors' probes together with its tasks.
 * **Release what is idle.** With ``idle_timeout_s``, an actor that has had nothing to do for that

@@ -11,28 +11,19 @@ from __future__ import annotations
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 import pytest
 
 from rap.dataset import open_dataset
 
 from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
+from tests.farm.fake_cluster import RAY, free_port
 
 pytestmark = pytest.mark.ray
-
-RAY = str(Path(sys.executable).with_name("ray"))
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def alive_nodes(address: str, env: dict) -> int:
