@@ -10,11 +10,13 @@
    (``rap.enumerate.select_operations``: every operation, refused at once past the budget when
    uncapped, or a seeded sample of ``max_ops_per_assembly`` drawn lazily); raises ``InputError``
    with one line otherwise; nothing existing is modified when a check fails;
-2. starts or joins Ray (``rap.farm.runtime.connect``) and streams the selections, assembly after
-   assembly, into a ``SimPool`` with bounded in-flight batches, skipping operations whose key is
-   already in the dataset (resume); nothing is enumerated ahead of what is in flight, so the
-   driver's memory is bounded by the work in flight and the keys of one assembly, not by the size
-   of any operation space;
+2. starts or joins Ray (``rap.farm.runtime.connect``) and streams the selections into a
+   ``SimPool`` with bounded in-flight batches, skipping operations whose key is already in the
+   dataset (resume). With several assemblies the selecting runs in parallel Ray tasks, one per
+   assembly (``rap.farm.prefetch``: the driver's CPU per operation falls about fivefold,
+   benchmarks/driver_ceiling.py), else in the driver's thread; nothing is selected far ahead of
+   what is in flight, so the driver's memory is bounded by the work in flight and the keys of the
+   assemblies being selected, not by the size of any operation space;
 3. commits rows atomically (``rap.dataset.write_shard``): the first shard within
    ``first_flush_seconds`` of the first result, then every ``flush_rows`` rows or
    ``flush_seconds`` seconds;
@@ -50,6 +52,7 @@ from rap.errors import InputError
 
 from rap.farm.pool import IDLE_TIMEOUT_S, Job, SimPool
 from rap.farm.runtime import connect
+from rap.farm.prefetch import parallel_jobs
 from rap.farm.selection import HIST_BINS, LabelConfig, LabelPlan, LabelSummary, iter_jobs, prepare
 
 __all__ = ["PRESETS", "LabelConfig", "LabelPlan", "LabelSummary", "prepare", "run_label",
@@ -199,7 +202,12 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
             t0 = time.perf_counter()  # the rate counts labelling time only
             with progress:
                 bar = progress.add_task("label", total=plan.total)
-                jobs = tracked(iter_jobs(plan, summary, lambda k: progress.advance(bar, k)))
+                skipped = lambda k: progress.advance(bar, k)  # noqa: E731
+                if len(plan.assemblies) > 1 and cfg.selection_tasks != 0:  # select in parallel
+                    jobs = tracked(parallel_jobs(plan, summary, skipped,
+                                                 tasks=cfg.selection_tasks or rt.cpus))
+                else:
+                    jobs = tracked(iter_jobs(plan, summary, skipped))
                 for res in pool.stream(jobs, plan.params, images=True, errors="collect"):
                     if res.error is not None:
                         summary.failed.setdefault(res.assembly, res.error)

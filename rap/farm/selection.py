@@ -36,7 +36,8 @@ from rap.operation import Operation
 
 from rap.farm.rows import Backend, resolve
 
-__all__ = ["Job", "LabelConfig", "LabelPlan", "LabelSummary", "prepare", "iter_jobs", "HIST_BINS"]
+__all__ = ["Job", "LabelConfig", "LabelPlan", "LabelSummary", "Outcome", "prepare", "select_jobs",
+           "record", "iter_jobs", "HIST_BINS"]
 
 HIST_BINS = 10
 
@@ -71,6 +72,8 @@ class LabelConfig:
     num_cpus: int | None = None  # embedded Ray only: CPUs to start it with (default: all)
     start_timeout_s: float = 120.0  # simulation workers must start within this (FarmError)
     backend: Backend = Backend()
+    selection_tasks: int | None = None  # assemblies selected at once in Ray tasks (None: one per
+    # CPU of the cluster; 0: in the driver's thread, assembly after assembly): rap.farm.prefetch
     params_factory: str = "rap.sim.params:SimParams"
     progress: bool = True
     command: str = "rap-farm label"
@@ -270,39 +273,73 @@ def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) ->
         raise
 
 
-def iter_jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], None]) -> Iterator[Job]:
-    """The jobs of every selection, assembly after assembly, lazily; skips what is already in the
-    dataset and every assembly in ``summary.failed``. A failing enumeration fails its assembly only."""
+@dataclass
+class Outcome:
+    """What selecting one assembly found besides its jobs (``select_jobs`` fills it in)."""
+
+    selected: int = 0  # operations the selection gave
+    existing: int = 0  # of those, already in the dataset
+    short: Shortfall | None = None  # the selection ended before its total, and why
+    failed: str | None = None  # the selection itself failed: why
+
+
+def select_jobs(plan: LabelPlan, assembly: Assembly, outcome: Outcome,
+                stop: Callable[[], bool] = lambda: False) -> Iterator[tuple[Operation, str, int]]:
+    """``(operation, key, seed)`` of every operation of ``assembly``'s selection not yet in the
+    dataset, each once, lazily; counts into ``outcome``. A failing selection fails this assembly
+    only (``outcome.failed``); ``stop()`` true ends it early. No Ray: the driver runs it in its
+    thread (``iter_jobs``) or in Ray tasks (``rap.farm.prefetch``)."""
     fp = plan.params.fingerprint()
     seed = plan.config.seed
     existing = plan.existing_keys
+    gh = assembly.geometry_hash
+    seen: set[str] = set()  # this assembly's keys (its selection is distinct by construction)
+    selection = plan.selections[assembly.name]
+    try:
+        for op in selection:
+            if stop():
+                return
+            outcome.selected += 1
+            key = label_key(op, gh, fp, seed)
+            if key in seen:
+                continue
+            seen.add(key)
+            if key in existing:
+                outcome.existing += 1
+                continue
+            yield op, key, label_seed(op, gh, fp, seed)
+        outcome.short = selection.shortfall(outcome.selected)
+    except (RapError, ValueError, ArithmeticError, RecursionError, MemoryError) as exc:
+        outcome.failed = f"selecting operations failed: {_one_line(exc)}"
+
+
+def record(summary: LabelSummary, name: str, outcome: Outcome) -> None:
+    """Add one assembly's selection outcome to the run's summary."""
+    if outcome.failed is not None:
+        summary.failed.setdefault(name, outcome.failed)
+    elif outcome.short is not None and name not in summary.failed:
+        summary.short[name] = outcome.short
+
+
+def iter_jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], None]) -> Iterator[Job]:
+    """The jobs of every selection, assembly after assembly, lazily, in this thread; skips what is
+    already in the dataset and every assembly in ``summary.failed``. A failing enumeration fails
+    its assembly only."""
     for a in plan.assemblies:
-        gh = a.geometry_hash
-        seen: set[str] = set()  # this assembly's keys (its selection is distinct by construction)
-        selection = plan.selections[a.name]
-        selected = 0
-        try:
-            for op in selection:
-                if a.name in summary.failed:
-                    break
-                selected += 1
-                key = label_key(op, gh, fp, seed)
-                if key in seen:
-                    continue
-                seen.add(key)
-                if key in existing:
-                    summary.existing += 1
-                    skipped(1)
-                    continue
-                yield Job(a, op, key, label_seed(op, gh, fp, seed))
-            if a.name not in summary.failed:
-                short = selection.shortfall(selected)
-                if short is not None:
-                    summary.short[a.name] = short
-        except (RapError, ValueError, ArithmeticError, RecursionError, MemoryError) as exc:
-            summary.failed.setdefault(a.name, f"selecting operations failed: {_one_line(exc)}")
+        outcome = Outcome()
+        counted = [0]
 
+        def count_existing() -> None:  # progress and summary as the skipped ones come
+            if outcome.existing > counted[0]:
+                summary.existing += outcome.existing - counted[0]
+                skipped(outcome.existing - counted[0])
+                counted[0] = outcome.existing
 
+        for op, key, seed in select_jobs(plan, a, outcome, lambda: a.name in summary.failed):
+            count_existing()
+            yield Job(a, op, key, seed)
+        count_existing()
+        record(summary, a.name, outcome)
 
 
 def _one_line(exc: BaseException) -> str:

@@ -80,3 +80,8 @@ def simulate_or_fail(assembly, op, params, rng):
     if assembly.name.startswith("boom"):
         raise ValueError(f"simulated failure in {assembly.name}")
     return simulate(assembly, op, params, rng)
+
+
+def failing_stream():
+    """A selection's stream that fails (``rap.enumerate.Selection(..., stream=failing_stream)``)."""
+    raise ValueError("enumeration exploded")
