@@ -70,16 +70,9 @@ def cpu_s() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--max-ops", type=int, default=4000)
-    ap.add_argument("--repeats", type=int, default=2)
-    ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--sim-ops-per-core", type=float, default=9.0)
-    args = ap.parse_args()
-    os.environ["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
-    import ray
-
+def measure(repeats: int = 2, max_ops: int = 4000, workers: int = 1) -> dict[str, float]:
+    """Time ``run_label`` both ways on the connected Ray (printing a line a run); the best
+    ceiling of each way, operations/s."""
     from rap.farm.driver import LabelConfig, prepare, run_label
     from rap.farm.rows import Backend
 
@@ -87,15 +80,14 @@ def main() -> None:
     files = assemblies(tmp)
     backend = Backend(simulate="benchmarks.driver_ceiling:null_simulate",
                       render="benchmarks.driver_ceiling:blank_render", warm_up="")
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
-    best = {}
+    best: dict[str, float] = {}
     try:
-        for _ in range(args.repeats):
+        for _ in range(repeats):
             for tasks, how in ((0, "driver thread"), (None, "parallel tasks")):
                 out = tmp / "out"
                 shutil.rmtree(out, ignore_errors=True)
-                cfg = LabelConfig(assemblies=tuple(files), out=str(out), workers=args.workers,
-                                  trials=5, max_ops_per_assembly=args.max_ops, backend=backend,
+                cfg = LabelConfig(assemblies=tuple(files), out=str(out), workers=workers,
+                                  trials=5, max_ops_per_assembly=max_ops, backend=backend,
                                   progress=False, flush_rows=4096, selection_tasks=tasks)
                 c0, t0 = cpu_s(), time.perf_counter()
                 s = run_label(cfg, prepare(cfg))
@@ -106,12 +98,33 @@ def main() -> None:
                       f"labelling ({wall:.1f} s wall), driver CPU {1e6 * cpu / s.labelled:5.0f} "
                       f"us/op -> {ceiling:6.0f} ops/s with a core to itself", flush=True)
     finally:
-        ray.shutdown()
         shutil.rmtree(tmp, ignore_errors=True)
+    return best
+
+
+def ceiling_line(best: dict[str, float], sim_ops_per_core: float = 9.0) -> str:
     c = best["parallel tasks"]
-    print(f"driver ceiling: {c:.0f} operations/s (selection in parallel tasks; in the driver's "
-          f"thread {best['driver thread']:.0f}); it feeds about {c / args.sim_ops_per_core:.0f} "
-          f"cores at {args.sim_ops_per_core:g} simulated operations/s a core")
+    return (f"driver ceiling: {c:.0f} operations/s (selection in parallel tasks; in the driver's "
+            f"thread {best['driver thread']:.0f}); it feeds about {c / sim_ops_per_core:.0f} "
+            f"cores at {sim_ops_per_core:g} simulated operations/s a core")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--max-ops", type=int, default=4000)
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--sim-ops-per-core", type=float, default=9.0)
+    args = ap.parse_args()
+    os.environ["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
+    import ray
+
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
+    try:
+        best = measure(args.repeats, args.max_ops, args.workers)
+    finally:
+        ray.shutdown()
+    print(ceiling_line(best, args.sim_ops_per_core))
 
 
 if __name__ == "__main__":

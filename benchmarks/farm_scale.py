@@ -188,8 +188,10 @@ def main() -> None:
         print(f"machine: {os.cpu_count()} cores; {where}; simulator sleeps {args.op_ms:g} ms per "
               f"operation; {args.ops_per_worker} operations per worker")
 
-        # -- driver ceiling (issue 27, point 2): its owner prints "driver ceiling: N operations/s"
-        # -- here, measured with a simulator that returns at once.
+        if not args.fake_nodes:  # a simulator that returns at once (benchmarks/driver_ceiling.py)
+            from benchmarks.driver_ceiling import ceiling_line, measure
+
+            print(ceiling_line(measure(repeats=1)))
 
         res = scaling(counts, args.ops_per_worker, params, backend)
         n1, s1 = res[1]
