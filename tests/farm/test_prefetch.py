@@ -17,7 +17,6 @@ from tests.farm.standin import failing_stream
 pytestmark = pytest.mark.ray
 
 FILES = tuple(str(ASSEMBLIES / f"{n}.json") for n in ("grid", "hexagon", "rectilinear", "triangles"))
-PENTOMINO = str(ASSEMBLIES / "unseen" / "pentomino-6x10.json")
 
 
 def _jobs(plan, parallel: bool, chunk: int = 7):
@@ -37,14 +36,15 @@ def _config(out, files, **kw) -> LabelConfig:
 
 
 def test_parallel_selection_equals_the_driver_thread_s(ray_local, tmp_path):
-    with prepare(_config(tmp_path / "a", FILES + (PENTOMINO,), max_ops_per_assembly=1500)) as plan:
+    # grid's sample stops at 383 of its 1,188 operations (a short selection; so do others)
+    with prepare(_config(tmp_path / "a", FILES, max_ops_per_assembly=500)) as plan:
         some = sorted(k for _, _, k, _ in _jobs(plan, False)[0])[::5]
         plan.existing_keys = set(some)  # as if a fifth of the rows were in the dataset
         serial, s_summary, s_skipped = _jobs(plan, False)
         parallel, p_summary, p_skipped = _jobs(plan, True)
-    assert parallel == serial and len(serial) > 1000
+    assert parallel == serial and len(serial) > 600
     assert p_summary.existing == s_summary.existing == p_skipped == s_skipped == len(some)
-    assert p_summary.short == s_summary.short and "pentomino-6x10" in p_summary.short
+    assert p_summary.short == s_summary.short and "grid" in p_summary.short
     assert p_summary.failed == s_summary.failed == {}
 
 
