@@ -146,6 +146,9 @@ def test_idle_actors_are_released_and_the_pool_grows_again(ray_local, grid):
         while pool.size and time.monotonic() < deadline:
             time.sleep(0.1)
         assert pool.size == 0 and pool.stats["retired"] == 2  # both released, nothing pending
+        import ray  # the released CPUs reach available_resources() a moment after the kill
+        while ray.available_resources().get("CPU", 0) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
         again = {r["key"]: r["successes"] for res in pool.stream(
             SimPool.jobs(grid, ops, params, 5), params, images=False) for r in res.rows}
         assert again == first and pool.stats["actors"] == 4  # two more, for the free CPUs
