@@ -158,7 +158,7 @@ def main() -> None:
     from rap.plan.experiment import _params_and_seed
     from rap.plan.problem import PlanningProblem
     from rap.plan.scorers import PredictorCnn
-    from rap.plan.search import _graph
+    from rap.plan.graph import reachable
 
     folder = ROOT / "assemblies" / "unseen"
     names = args.names or sorted(p.stem for p in folder.glob("*.json"))
@@ -173,7 +173,7 @@ def main() -> None:
     print("\nbranch and bound replayed: operations scored, batches, model seconds (estimated)")
     for name in names:
         problem = PlanningProblem(assemblies[name], params, seed, "online")
-        graph = _graph(problem, 20_000)
+        graph = reachable(problem, 20_000)
         ops = [op for c in graph.values() for op in c]
         if fwd is None:
             fwd, render = costs(args.model, problem, ops)

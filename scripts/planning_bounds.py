@@ -44,7 +44,7 @@ HIGH = 0.95  # the class threshold of the paper and the corpus
 
 def optimum(problem, graph: dict, truth: dict) -> float:
     """The optimum's robustness: the DP over ``truth`` (key -> simulated score) on ``graph``."""
-    from rap.plan.planners import dp_choice
+    from rap.plan.graph import dp_choice
 
     best, _ = dp_choice(graph, {s: [truth[problem.key(op)] for op in c] for s, c in graph.items()})
     return best[problem.whole]
@@ -100,13 +100,13 @@ def main() -> None:
     if not path.exists():
         sys.exit(f"{path}: no score tables; run python scripts/search_validation.py --set {a.set}")
     tabs = pickle.loads(path.read_bytes())
-    from rap.plan.search import _graph
+    from rap.plan.graph import reachable
 
     rows = []
     for name, tab in tabs.items():
         problem = sv.problem_of(name)  # its candidates are memoised: enumerated once
         truth = tab["truth"]
-        graph = _graph(problem, 10**9)
+        graph = reachable(problem)
         r_opt = optimum(problem, graph, truth)
         _, model_ops = search_counts(problem, truth, tab["pred"], r_opt)
         r_perfect, perfect_ops = search_counts(problem, truth, truth, r_opt)

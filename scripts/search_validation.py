@@ -57,13 +57,13 @@ def fresh_assemblies() -> dict:
     out = ROOT / "reports" / "fresh-assemblies"
     out.mkdir(parents=True, exist_ok=True)
     from rap.plan.problem import PlanningProblem
-    from rap.plan.search import _graph, _TooLarge
+    from rap.plan.graph import TooLarge, reachable
     from rap.sim.params import SimParams
 
     def small(a) -> bool:  # at most FRESH_OPERATIONS operations: tables in minutes
         try:
-            _graph(PlanningProblem(a, SimParams(), SEED), FRESH_OPERATIONS)
-        except _TooLarge:
+            reachable(PlanningProblem(a, SimParams(), SEED), FRESH_OPERATIONS)
+        except TooLarge:
             return False
         return True
 
@@ -111,10 +111,10 @@ def predictions(name: str, mirror: bool = False, model: Path | None = None,
     """key -> the hold-out model's (or ``model``'s) expected score (``what="prob_high"``: its
     P(high), what RAP acts on), for every operation of the graph."""
     from rap.plan.scorers import PredictorCnn
-    from rap.plan.search import _graph
+    from rap.plan.graph import reachable
 
     problem = problem_of(name)
-    ops = [op for c in _graph(problem, 10**9).values() for op in c]
+    ops = [op for c in reachable(problem).values() for op in c]
     cnn = PredictorCnn.load(model or model_of(name), engine="auto", mirror=mirror)
     return dict(zip([problem.key(op) for op in ops],
                     map(float, getattr(cnn, what)(problem, ops))))
@@ -125,10 +125,10 @@ def tables(name: str, dataset) -> dict:
     import pyarrow.dataset as ds
 
     from rap.plan.scorers import LocalSimulator
-    from rap.plan.search import _graph
+    from rap.plan.graph import reachable
 
     problem = problem_of(name)
-    ops = [op for c in _graph(problem, 10**9).values() for op in c]
+    ops = [op for c in reachable(problem).values() for op in c]
     keys = [problem.key(op) for op in ops]
     truth = {}
     if dataset is not None:  # labels already simulated with the same seeds: the same numbers
@@ -181,12 +181,12 @@ def evaluate(name: str, tab: dict, trust: float | None, simulations: int,
              optimism: float = 0.0) -> tuple[float, int]:
     """(R / R optimal, simulations while planning) of search on the lookup tables."""
     from rap.plan.cache import ScoreCache
-    from rap.plan.planners import dp_choice
+    from rap.plan.graph import dp_choice, reachable
     from rap.plan.scorers import Scorer
-    from rap.plan.search import SearchPlanner, _graph
+    from rap.plan.search import SearchPlanner
 
     problem = problem_of(name)
-    graph = _graph(problem, 10**9)
+    graph = reachable(problem)
     best, _ = dp_choice(graph, {s: [tab["truth"][problem.key(op)] for op in c]
                                 for s, c in graph.items()})
     result = SearchPlanner(simulations=simulations, trust=trust, optimism=optimism).solve(
@@ -200,14 +200,14 @@ def prediction_metrics(name: str, tab: dict) -> dict:
     mean absolute error, mean |log p - log s| (scores floored at 0.01: the DP multiplies), and
     the fraction of candidate pairs of one subassembly, whose simulated scores differ by at least
     0.05, that the predictions order the same way (what the DP's choices rest on)."""
-    from rap.plan.search import _graph
+    from rap.plan.graph import reachable
 
     problem = problem_of(name)
     pred, truth = tab["pred"], tab["truth"]
     p = np.array([pred[k] for k in truth])
     t = np.array(list(truth.values()))
     good = pairs = 0
-    for cands in _graph(problem, 10**9).values():
+    for cands in reachable(problem).values():
         ks = [problem.key(op) for op in cands]
         for i, a in enumerate(ks):
             for b in ks[i + 1:]:

@@ -8,9 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from rap.plan.planners import dp_choice
+from rap.plan.graph import dp_choice, reachable
 from rap.plan.problem import PlanningProblem
-from rap.plan.search import _graph
 from rap.sim.params import SimParams
 
 from tests.plan.cases import six
@@ -25,7 +24,7 @@ def bounds():
 @pytest.fixture(scope="module")
 def case():
     problem = PlanningProblem(six("rectilinear"), SimParams(trials=10))
-    graph = _graph(problem, 10**9)
+    graph = reachable(problem)
     rng = np.random.default_rng(3)
     keys = sorted({problem.key(op) for c in graph.values() for op in c})
     truth = dict(zip(keys, (rng.integers(60, 101, len(keys)) / 100).tolist()))

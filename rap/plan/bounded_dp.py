@@ -1,6 +1,6 @@
 """The optimum's dynamic program by branch and bound: score only the operations that can matter.
 
-``dp_choice_bounded(graph, scores_of, whole)`` returns what ``rap.plan.planners.dp_choice`` and
+``dp_choice_bounded(graph, scores_of, whole)`` returns what ``rap.plan.graph.dp_choice`` and
 ``dp_tree`` give for ``whole`` (``best(S) = max r(op) best(M) best(F)``, the first maximising
 candidate in ``graph[S]`` order; the same floats, multiplied in the same order), but asks for the
 scores of a subassembly's candidates (``scores_of(S)``) only when it visits ``S``, and visits ``S``
@@ -24,15 +24,11 @@ from __future__ import annotations
 import math
 from typing import Callable, Sequence
 
-from rap.operation import Operation
+from rap.plan.graph import Graph, Tree
 
 __all__ = ["dp_choice_bounded", "SLACK"]
 
 SLACK = 1.0 - 1e-9  # prune only below (1 - 1e-9) x the bar: rounding never hides a tie
-
-
-Graph = dict[frozenset, tuple[Operation, ...]]
-Tree = dict[frozenset, tuple[int, Operation]]
 
 
 def dp_choice_bounded(graph: Graph, scores_of: Callable[[frozenset], Sequence[float]],

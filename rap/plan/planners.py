@@ -18,6 +18,7 @@ assembly order (children before parents: the disassembly sequence reversed).
   ``best(S) = max over (M, F, d) of r(op) * best(M) * best(F)``, ``best({p}) = 1``. Each reachable
   subassembly and each operation is visited once, against the paper's exhaustive search over every
   sequence (``stats["exhaustive_sequences"]`` counts the assembly trees it would enumerate).
+  The graph, its dynamic programme and the ``Interlocked`` error live in ``rap.plan.graph``.
 * ``RandomPlanner``: ``samples`` (50) random sequences, each split chosen uniformly among the
   candidates, seeded from the root seed; ``stats["mean_robustness"]`` is the baseline figure and the
   returned sequence is the sample whose robustness is closest to that mean.
@@ -43,43 +44,20 @@ from typing import Sequence
 import numpy as np
 
 from rap.operation import Operation
+from rap.plan.graph import (Interlocked, argmax_first, assembly_order, dead_end, dp_choice,
+                            dp_tree, reachable)
 from rap.plan.problem import PlanningProblem, minimal_interlocked
 from rap.plan.result import PlanResult, PlanStatus, PlanStep, interlocked_message
 from rap.plan.scorers import Budget, BudgetSpent, Scorer
 from rap.seeds import derive_rng
 
 __all__ = ["Planner", "RapPlanner", "SimPlanner", "OptimalPlanner", "RandomPlanner",
-           "evaluate_steps", "assembly_order", "dp_choice", "dp_tree", "dead_end",
-           "HIGH_PROBABILITY", "FALLBACK_ROUND"]
+           "evaluate_steps", "HIGH_PROBABILITY", "FALLBACK_ROUND"]
 
 HIGH_PROBABILITY = 0.5  # the CNN's class decision: P(high) >= 0.5 is "high"
 #: candidates of one subassembly simulated per round of RAP's best-first fallback: two keep two
 #: simulation workers busy at the top of the tree, where one subassembly is open
 FALLBACK_ROUND = 2
-
-
-class _Interlocked(Exception):
-    def __init__(self, subset: frozenset[str]):
-        self.subset = subset
-
-
-def assembly_order(choice: dict[frozenset, PlanStep], whole: frozenset[str]) -> list[PlanStep]:
-    """Steps of a decomposition tree (subassembly -> chosen step) in assembly order: post-order,
-    moving side first, then fixed side, then the step that joins them."""
-    out: list[PlanStep] = []
-    stack: list[tuple[frozenset, bool]] = [(whole, False)]
-    while stack:
-        s, expanded = stack.pop()
-        if len(s) < 2:
-            continue
-        st = choice[s]
-        if expanded:
-            out.append(st)
-        else:
-            stack.append((s, True))
-            stack.append((frozenset(st.fixed), False))
-            stack.append((frozenset(st.moving), False))
-    return out
 
 
 def evaluate_steps(problem: PlanningProblem, scorer: Scorer,
@@ -107,7 +85,7 @@ class Planner(abc.ABC):
 
         try:
             steps = self._search(problem, scorer, stats)
-        except _Interlocked as exc:
+        except Interlocked as exc:
             culprit = minimal_interlocked(problem, exc.subset)
             return PlanResult(PlanStatus.INFEASIBLE, self.name, problem.assembly.name,
                               seconds=time.perf_counter() - t0,
@@ -136,7 +114,7 @@ class Planner(abc.ABC):
 
     @abc.abstractmethod
     def _search(self, problem: PlanningProblem, scorer: Scorer, stats: dict) -> list[PlanStep]:
-        """The steps in assembly order (scores filled in later), or raise ``_Interlocked``."""
+        """The steps in assembly order (scores filled in later), or raise ``Interlocked``."""
 
 
 class _Greedy(Planner):
@@ -157,7 +135,7 @@ class _Greedy(Planner):
             for s in open_:
                 c = problem.candidates(s)
                 if not c:
-                    raise _Interlocked(s)
+                    raise Interlocked(s)
                 cands.append(c)
             chosen = self._select(problem, scorer, cands, stats)
             stats["levels"] += 1
@@ -168,14 +146,6 @@ class _Greedy(Planner):
                 nxt += [side for side in (frozenset(st.moving), frozenset(st.fixed)) if len(side) >= 2]
             open_ = nxt
         return assembly_order(choice, whole)
-
-
-def _argmax_first(values: Sequence[float]) -> int:
-    best, idx = -math.inf, 0
-    for i, v in enumerate(values):
-        if v > best:
-            best, idx = v, i
-    return idx
 
 
 def _split(flat: Sequence, cands: list[tuple]) -> list[list]:
@@ -196,7 +166,7 @@ class SimPlanner(_Greedy):
         scores = _split(scorer.scores(problem, flat), cands)
         out = []
         for c, sc in zip(cands, scores):
-            i = _argmax_first(sc)
+            i = argmax_first(sc)
             out.append(PlanStep.of(c[i], "sim", score=sc[i]))
         return out
 
@@ -278,69 +248,6 @@ class RapPlanner(_Greedy):
         return simulated
 
 
-def _reachable(problem: PlanningProblem) -> dict[frozenset, tuple[Operation, ...]]:
-    """Every subassembly reachable from the whole by candidate splits, with its candidates; an
-    interlocked one (a dead end of the AND/OR graph) has an empty tuple."""
-    whole = problem.whole
-    seen: dict[frozenset, tuple[Operation, ...]] = {}
-    stack = [whole]
-    while stack:
-        s = stack.pop()
-        if s in seen or len(s) < 2:
-            continue
-        c = problem.candidates(s)
-        seen[s] = c
-        for op in c:
-            stack += [op.moving, op.fixed]
-    return seen
-
-
-def dp_choice(graph: dict[frozenset, tuple[Operation, ...]],
-              score_of: dict[frozenset, Sequence[float]]) -> tuple[dict, dict]:
-    """``best(S) = max over candidates of r(op) * best(M) * best(F)`` (``best`` of a single part:
-    1; of a dead end: 0) for every subassembly of ``graph``, smallest first; ``arg[S]`` the index
-    of the first maximising candidate. O(operations)."""
-    best: dict[frozenset, float] = {}
-    arg: dict[frozenset, int] = {}
-
-    def b(x):
-        return best.get(x, 0.0) if len(x) >= 2 else 1.0
-
-    for s in sorted(graph, key=len):
-        vals = [r * b(op.moving) * b(op.fixed) for op, r in zip(graph[s], score_of[s])]
-        if not vals:
-            best[s] = 0.0
-            continue
-        i = _argmax_first(vals)
-        best[s], arg[s] = vals[i], i
-    return best, arg
-
-
-def dp_tree(graph: dict[frozenset, tuple[Operation, ...]], arg: dict[frozenset, int],
-            whole: frozenset) -> dict[frozenset, tuple[int, Operation]]:
-    """The disassembly tree that ``arg`` (from ``dp_choice``) picks below ``whole``: subassembly ->
-    (candidate index, operation) for every composite subassembly of it. O(parts)."""
-    tree = {}
-    stack = [whole]
-    while stack:
-        s = stack.pop()
-        if len(s) < 2:
-            continue
-        op = graph[s][arg[s]]
-        tree[s] = (arg[s], op)
-        stack += [op.moving, op.fixed]
-    return tree
-
-
-def dead_end(graph: dict[frozenset, tuple[Operation, ...]], whole: frozenset) -> frozenset:
-    """The subassembly to blame when no sequence exists: the whole when it has no candidate,
-    else the smallest interlocked subassembly reached."""
-    locked = [s for s, c in graph.items() if not c]
-    if whole in locked or not locked:
-        return whole
-    return min(locked, key=lambda s: (len(s), sorted(s)))
-
-
 class OptimalPlanner(Planner):
     """The most robust sequence over the operation space, by dynamic programming (module doc)."""
 
@@ -350,15 +257,15 @@ class OptimalPlanner(Planner):
         whole = problem.whole
         if len(whole) < 2:
             return []
-        graph = _reachable(problem)
+        graph = reachable(problem)
         if not graph[whole]:
-            raise _Interlocked(whole)
+            raise Interlocked(whole)
         flat = [op for c in graph.values() for op in c]
         scores = iter(scorer.scores(problem, flat))
         score_of = {s: [next(scores) for _ in c] for s, c in graph.items()}
         best, arg = dp_choice(graph, score_of)
         if best[whole] <= 0.0:
-            raise _Interlocked(dead_end(graph, whole))
+            raise Interlocked(dead_end(graph, whole))
         trees: dict[frozenset, int] = {}
 
         def t(x):
@@ -402,7 +309,7 @@ class RandomPlanner(Planner):
                 s = stack.pop()
                 c = problem.candidates(s)
                 if not c:
-                    raise _Interlocked(s)
+                    raise Interlocked(s)
                 op = c[int(rng.integers(len(c)))]
                 choice[s] = PlanStep.of(op, "random")
                 stack += [x for x in (op.fixed, op.moving) if len(x) >= 2]

@@ -47,9 +47,9 @@ import heapq
 import math
 from dataclasses import dataclass
 
-from rap.operation import Operation
 from rap.plan.bounded_dp import dp_choice_bounded
-from rap.plan.planners import Planner, _Interlocked, assembly_order, dead_end
+from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
+from rap.plan.planners import Planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStep
 from rap.plan.scorers import Scorer
@@ -58,30 +58,6 @@ __all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS"]
 
 DEFAULT_BEAM = 8
 DEFAULT_MAX_OPERATIONS = 20_000
-
-
-class _TooLarge(Exception):
-    pass
-
-
-def _graph(problem: PlanningProblem, max_operations: int) -> dict[frozenset, tuple[Operation, ...]]:
-    """Reachable subassemblies and their candidates (interlocked ones with an empty tuple);
-    raises ``_TooLarge`` past ``max_operations`` candidates."""
-    seen: dict[frozenset, tuple[Operation, ...]] = {}
-    stack = [problem.whole]
-    n = 0
-    while stack:
-        s = stack.pop()
-        if s in seen or len(s) < 2:
-            continue
-        c = problem.candidates(s)
-        n += len(c)
-        if n > max_operations:
-            raise _TooLarge()
-        seen[s] = c
-        for op in c:
-            stack += [op.moving, op.fixed]
-    return seen
 
 
 @dataclass
@@ -161,8 +137,8 @@ class SearchPlanner(Planner):
             return []
         scores = _Scores(problem, scorer, {}, {}, self.optimism, self.trust)
         try:
-            graph = _graph(problem, self.max_operations)
-        except _TooLarge:
+            graph = reachable(problem, self.max_operations)
+        except TooLarge:
             graph = None
         if graph is not None:
             stats["search"] = "exact"
@@ -194,7 +170,7 @@ class SearchPlanner(Planner):
         while True:
             best, tree = dp_choice_bounded(graph, scores_of, whole)
             if best <= 0.0:
-                raise _Interlocked(dead_end(graph, whole))
+                raise Interlocked(dead_end(graph, whole))
             choice = {sub: op for sub, (_, op) in tree.items()}
             todo = self._to_simulate(scores, choice.values())
             if todo and spent >= self.simulations and scores.optimism:
@@ -237,7 +213,7 @@ class SearchPlanner(Planner):
                     nxt.append((logp + math.log(r), counter, new_open, chosen + ((s, op),)))
                     counter += 1
             if not nxt:
-                raise _Interlocked(whole)
+                raise Interlocked(whole)
             beam = heapq.nlargest(self.beam_width, nxt, key=lambda st: (st[0], -st[1]))
         stats.update(beam_rounds=rounds, beam_width=self.beam_width)
         # simulations where they matter: re-rank the final sequences by mixed products

@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from rap.plan.bounded_dp import dp_choice_bounded
-from rap.plan.planners import dp_choice, dp_tree
+from rap.plan.graph import dp_choice, dp_tree, reachable
 from rap.plan.problem import PlanningProblem
-from rap.plan.search import _graph
 from rap.sim.params import SimParams
 
 from tests.plan.cases import SIX, six
@@ -16,7 +15,7 @@ from tests.plan.cases import SIX, six
 
 def graph_of(name):
     problem = PlanningProblem(six(name), SimParams(trials=10))
-    return _graph(problem, 10**9), problem.whole
+    return reachable(problem), problem.whole
 
 
 def tables(graph, rng, kind):
