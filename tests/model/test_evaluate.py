@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from model_fixtures import FAST_TRAIN, LEARN_MODEL
+from rap.errors import InputError
 from rap.model.evaluate import cross_validate, fold_specs, summary_rows, write_report
 from rap.model.metrics import classification_metrics, expected_calibration_error, reliability_table
 
@@ -76,7 +77,8 @@ def test_leave_one_family_out_folds_and_report(family_dataset, tmp_path):
     assert "## Leave one assembly out" in text and "## Leave one family out" in text
     assert "| Test family |" in text and "Ceiling" in text
     assert {p.name for p in paths} >= {"crossval.png", "crossval-family.png"}
-    with pytest.raises(Exception, match="no such family"):
+    with pytest.raises(InputError, match=r"holdout.family fans: no such family in .+ \(has: "
+                                          r"pegs, reference, walls\)$"):
         train(family_dataset, holdout_family="fans", model_config=LEARN_MODEL, config=FAST_TRAIN)
 
 

@@ -31,9 +31,9 @@ def test_crop_channels_are_rendered_once_and_cached(real_dataset, tmp_path, monk
 def test_a_crop_model_trains_and_plans_with_the_same_images(real_dataset, tmp_path, monkeypatch):
     from rap.model.predict import Predictor
     from rap.model.train import train
-    from rap.plan.fastcnn import load_fast_predictor
+    from rap.model.fastcnn import load_fast_predictor
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import PredictorCnn
+    from rap.model.inference import PredictorCnn
     from rap.io import load_assembly
     from rap.sim.params import SimParams
     import rap
@@ -52,7 +52,8 @@ def test_a_crop_model_trains_and_plans_with_the_same_images(real_dataset, tmp_pa
     assert torch_cnn.images(problem, ops).shape == (5, 4, 64, 64)
     np.testing.assert_allclose(torch_cnn.prob_high(problem, ops), fast_cnn.prob_high(problem, ops),
                                atol=1e-4)
-    with pytest.raises(Exception, match="in_channels"):
+    with pytest.raises(ValueError, match=r"^ModelConfig: view 'pair\+crop' has 4 channels, "
+                                         r"in_channels is 2$"):
         replace(LEARN_MODEL, view="pair+crop")  # 2 channels do not fit the view
 
 

@@ -61,12 +61,13 @@ def test_funnel_scores_clearly_higher_than_tight_peg():
 
 
 def test_result_fields_and_score():
+    """The funnel at seed 1: 7 of 10 trials, the same trials on every run (labels reproduce)."""
     res = simulate(*FUNNEL_PEG, SimParams(trials=10), np.random.default_rng(1))
-    assert isinstance(res, SimResult)
-    assert res.trials == 10 and 0 <= res.successes <= 10
-    assert res.score == res.successes / res.trials
-    assert res.seconds > 0
-    assert len(res.outcomes) == 10 and sum(res.outcomes) == res.successes
+    assert type(res) is SimResult and type(res.seconds) is float
+    assert (res.successes, res.trials, res.score) == (7, 10, 0.7)
+    assert res.outcomes == (1, 1, 1, 1, 1, 1, 0, 0, 1, 0)
+    again = simulate(*FUNNEL_PEG, SimParams(trials=10), np.random.default_rng(1))
+    assert (again.successes, again.outcomes, again.body_steps) == (7, res.outcomes, res.body_steps)
 
 
 def test_rng_is_required():
