@@ -13,9 +13,7 @@
   its first K operations are "the sample of K": growing K only adds operations, and a resumed run
   selects exactly what an uninterrupted one did. It ends when ``patience`` trees in a row bring
   nothing new: the space is exhausted, or what is left of it lies in subassemblies that random
-  trees reach rarely (with the default root seed, ``assemblies/grid.json`` stops at 383 of its
-  1,188 operations and ``assemblies/unseen/pentomino-6x10.json`` at 1,134 of 20,796; with more
-  patience new ones keep coming, ever more slowly: 3,844 of the pentomino's after 150 s).
+  trees reach rarely (how far the streams of two assemblies go: docs/RESULTS.md).
 * ``select_operations(assembly, limit, ...)`` decides: no limit -> every operation (refused with
   ``TooManyOperations`` past the budget); a limit at least the size of the space -> every
   operation; otherwise the first ``limit`` operations of the sampled stream. A selection whose

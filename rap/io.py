@@ -6,9 +6,9 @@ This module sits above both, so that the data layer never imports the geometry l
 problem raises ``rap.assembly.AssemblyError``: one line naming the file, the part and the problem.
 Cost, within ``rap.assembly.LIMITS``: reading is linear in the file's size; validation is
 O(sum of q^2) exact-filtered segment pairs for the rings (q vertices per ring) plus the overlap
-test of parts whose boxes meet, O(n^2 q^2) in the worst case (n parts). Measured on this project's
-2-core machine: a 10,000-vertex star ring (every edge's box meets a quarter of the others) in
-about 5 s, the 100-part grid in a fraction of a second (docs/RESULTS.md).
+test of parts whose boxes meet, O(n^2 q^2) in the worst case (n parts; a star ring, whose edges'
+boxes meet, is the worst case for one ring). Timings: ``python benchmarks/validation.py``,
+docs/RESULTS.md.
 """
 
 from __future__ import annotations

@@ -38,8 +38,8 @@ the tolerance says. Each ring is then checked exactly: at least 3 vertices and a
 after snapping, and simple (``rap.geometry.validation.ring_is_simple``); a self-intersection is
 named by the two entities whose edges meet.
 
-Cost: O(E log E + P * k) for E piece ends and P flattened points, k the nodes near an edge's box;
-the 100-part benchmark grid imports in a fraction of a second (benchmarks/cad_import.py).
+Cost: O(E log E + P * k) for E piece ends and P flattened points, k the nodes near an edge's box
+(timings: ``python benchmarks/cad_import.py``, docs/RESULTS.md).
 """
 
 from __future__ import annotations

@@ -128,7 +128,7 @@ class RobustnessCNN(nn.Module):
         head.append(nn.Linear(width, config.n_classes if config.head == "class"
                               else out_features(config.head)))
         self.head = nn.Sequential(*head)
-        # channels-last convolutions and pooling: 2-3x faster on CPU (oneDNN), same results
+        # channels-last convolutions and pooling: faster on CPU (oneDNN; docs/RESULTS.md), same results
         self.to(memory_format=torch.channels_last)
 
     def forward(self, x: torch.Tensor, descriptors: torch.Tensor | None = None) -> torch.Tensor:

@@ -41,8 +41,8 @@ def resolve_device(name: str | torch.device = "auto") -> torch.device:
         raise InputError(f"unknown device {name!r} (auto, cpu or cuda)") from None
 
 
-CPU_CHUNK = 64  # images per forward pass on the CPU: 0.55 ms an image at 64, 1.2 at 256 or more
-# (a bigger batch's activations overflow the caches; see benchmarks/model.py)
+CPU_CHUNK = 64  # images per forward pass on the CPU: a bigger batch's activations overflow the
+# caches (``python benchmarks/model.py``; docs/RESULTS.md)
 
 
 @torch.inference_mode()

@@ -14,9 +14,9 @@ larger than ``tau`` (marked as such, never mistaken for a value); pruning compar
 slack of ``SLACK`` so that rounding never prunes a candidate that ties with the best (ties must be
 seen to keep the first maximiser). Memory: O(subassemblies visited).
 
-Cost: at most the full DP's work (every subassembly's candidates scored once); on the held-out
-assemblies of docs/RESULTS.md it scored 9-100% (mean 65-71%) of the graph's operations with the
-CNN's predictions. Recursion depth at most the number of parts.
+Cost: at most the full DP's work (every subassembly's candidates scored once); how much less
+depends on how the scores are spread, not on whether they are right (measured: docs/RESULTS.md,
+``python benchmarks/search.py``). Recursion depth at most the number of parts.
 """
 
 from __future__ import annotations

@@ -42,8 +42,7 @@ class SimParams:
     dt_s: float = 1.0 / 120.0  # physics step
     control_substeps: int = 1  # physics steps per control step (forces held; checks per control step)
     time_limit_s: float = 16.0  # a trial succeeds only if it reaches the goal within this time (8 s
-    # cut off slow-but-sure insertions: 11% of operations reached 0.95; 16 s: 49%, and a tight peg
-    # vs the same peg with a funnel separates more, 0.31 vs 0.90 instead of 0.18 vs 0.69)
+    # cut off slow-but-sure insertions: docs/RESULTS.md, "Simulator")
 
     # --- controller (proportional feedback toward a carrot on the straight path) --------------
     carrot_speed: float = 40.0  # world units / s the carrot advances along the path
