@@ -1,12 +1,14 @@
 """The ``rap-farm`` command line (typer).
 
 Each command lives in ``rap.commands.<name>`` and registers itself with ``register(app)``; heavy
-imports (ray, torch) happen inside the command bodies. Errors derived from ``RapError`` print one
-line to stderr and exit with their documented status (``rap.errors``: 1 for an infeasible plan, 2 for
-bad input, 3 for work that failed, 130 when interrupted). An ``OSError`` that reaches ``main`` (a
-file that cannot be written: disk full, read-only, permissions) is one line naming the path, exit 3;
-any other exception is a bug in rap-farm: one line, exit 4, never exit 1 (which means "no feasible
-sequence"). No traceback is shown unless ``RAP_DEBUG=1``.
+imports (ray, torch) happen inside the command bodies; a command module that cannot be imported is
+an internal error (exit 4, naming the module), never a command silently missing. Errors derived
+from ``RapError`` print one line to stderr and exit with their documented status (``rap.errors``: 1
+for an infeasible plan, 2 for bad input, 3 for work that failed, 130 when interrupted). An
+``OSError`` that reaches ``main`` (a file that cannot be written: disk full, read-only,
+permissions) is one line naming the path, exit 3; any other exception is a bug in rap-farm: one
+line, exit 4, never exit 1 (which means "no feasible sequence"). No traceback is shown unless
+``RAP_DEBUG=1``.
 
 Usage errors (a missing argument, an unknown option, a bad value) print the CLI stack's short usage
 message and exit 2. The app runs with ``standalone_mode=False``, so the stack's own exceptions reach
@@ -28,7 +30,7 @@ import typer
 from rap import __version__
 from rap.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, RapError
 
-__all__ = ["app", "main"]
+__all__ = ["app", "main", "register_commands"]
 
 COMMAND_MODULES = ("inspect", "show", "generate", "simulate", "label", "check", "train",
                    "evaluate", "score", "plan", "serve", "experiment", "demo", "import_drawing")
@@ -58,14 +60,22 @@ def _root(version: bool = typer.Option(False, "--version", callback=_version, is
     pass
 
 
-for _name in COMMAND_MODULES:
-    try:
-        _mod = importlib.import_module(f"rap.commands.{_name}")
-    except ModuleNotFoundError as exc:  # a command whose module is not written yet
-        if exc.name != f"rap.commands.{_name}":
-            raise
-        continue
-    _mod.register(app)
+def register_commands(target: typer.Typer, names=COMMAND_MODULES) -> dict[str, Exception]:
+    """Import ``rap.commands.<name>`` for each name and register its commands on ``target``; the
+    modules that cannot be imported, with their errors. ``main`` refuses to run with any (a broken
+    install or a bug: one line, exit 4) rather than offer a CLI with a command silently missing."""
+    broken: dict[str, Exception] = {}
+    for name in names:
+        try:
+            module = importlib.import_module(f"rap.commands.{name}")
+        except Exception as exc:
+            broken[name] = exc
+            continue
+        module.register(target)
+    return broken
+
+
+_BROKEN = register_commands(app)
 
 
 def _stack_exception(exc: BaseException) -> str | None:
@@ -89,8 +99,20 @@ def _interrupted() -> None:
     sys.exit(EXIT_INTERRUPTED)
 
 
+def _internal_error(exc: BaseException, what: str = "") -> None:
+    line = " ".join(str(exc).split())[:300]
+    print(f"rap-farm: internal error: {what}{type(exc).__name__}: {line} (a bug in rap-farm "
+          f"{__version__}; RAP_DEBUG=1 shows the traceback)", file=sys.stderr)
+    sys.exit(EXIT_INTERNAL)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point: runs the app and maps errors to one line + exit status."""
+    if _BROKEN:
+        name, exc = next(iter(_BROKEN.items()))
+        if os.environ.get("RAP_DEBUG"):
+            raise exc
+        _internal_error(exc, f"command module rap.commands.{name} cannot be imported: ")
     try:
         status = app(args=argv, prog_name="rap-farm", standalone_mode=False)
     except RapError as exc:
@@ -121,10 +143,7 @@ def main(argv: list[str] | None = None) -> None:
         if isinstance(exc, MemoryError):
             print("rap-farm: error: out of memory", file=sys.stderr)
             sys.exit(EXIT_FAILED)
-        line = " ".join(str(exc).split())[:300]
-        print(f"rap-farm: internal error: {type(exc).__name__}: {line} (a bug in rap-farm "
-              f"{__version__}; RAP_DEBUG=1 shows the traceback)", file=sys.stderr)
-        sys.exit(EXIT_INTERNAL)
+        _internal_error(exc)
     # In non-standalone mode an Exit (--help, --version, typer >= 0.20's Ctrl-C as Exit(130)) is
     # returned as its status; commands themselves return None.
     if isinstance(status, int) and not isinstance(status, bool) and status:

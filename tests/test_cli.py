@@ -77,6 +77,46 @@ def test_version_and_help_exit_0(run_cli):
     assert code == 0 and "--server" in out
 
 
+def test_the_top_level_help_lists_every_exit_status(run_cli):
+    from rap import errors
+
+    code, out, _ = run_cli("--help")
+    assert code == 0
+    listed = " ".join(out.split("Exit status:")[1].split("Options:")[0].split())
+    assert listed == ("0 ok, 1 no feasible sequence, 2 invalid input, 3 work failed (labelling, "
+                      "workers, disk full), 4 internal error, 130 interrupted.")
+    assert sorted(v for k, v in vars(errors).items() if k.startswith("EXIT_")) == [0, 1, 2, 3, 4,
+                                                                                   130]
+
+
+def test_a_command_module_that_cannot_be_imported_is_reported_not_skipped():
+    import typer
+
+    from rap.cli import register_commands
+
+    target = typer.Typer()
+    broken = register_commands(target, ("inspect", "nosuch"))
+    assert list(broken) == ["nosuch"] and type(broken["nosuch"]) is ModuleNotFoundError
+    assert str(broken["nosuch"]) == "No module named 'rap.commands.nosuch'"
+    assert [c.name for c in target.registered_commands] == ["inspect"]
+
+
+def test_the_console_script_refuses_to_run_without_a_command_module(tmp_path):
+    """Every invocation, --help included, is one line and exit 4: never a CLI that lacks `demo`."""
+    code = ("import sys\nsys.modules['rap.commands.demo'] = None\n"
+            "from rap.cli import main\nmain(sys.argv[1:])")
+    env = {k: v for k, v in os.environ.items() if k != "RAP_DEBUG"}
+    env["PYTHONPATH"] = str(ROOT)
+    for argv in (["--help"], ["inspect", HEXAGON]):
+        p = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True,
+                           env=env, cwd=tmp_path, timeout=120)
+        assert (p.returncode, p.stdout) == (4, ""), p.stderr
+        assert p.stderr == ("rap-farm: internal error: command module rap.commands.demo cannot be "
+                            "imported: ModuleNotFoundError: import of rap.commands.demo halted; None "
+                            f"in sys.modules (a bug in rap-farm {__import__('rap').__version__}; "
+                            "RAP_DEBUG=1 shows the traceback)\n")
+
+
 def test_usage_error_in_a_subprocess(tmp_path):
     """The console-script path (``python -m rap.cli``) with the installed CLI stack."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
