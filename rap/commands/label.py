@@ -44,7 +44,12 @@ def label(
         1, "--directions-per-range",
         help="Operations per merged direction range: its middle, plus N - 1 seeded directions "
              "strictly inside it, each its own operation."),
-    mode: str = typer.Option("all", "--mode", help="Partitions: 'all' (exhaustive) or 'online' (RAP's)."),
+    space: str = typer.Option(
+        "all", "--space",
+        help="Operation space, as in plan --space: all (every partition of every NDBG cell) | "
+             "online (one partition per NDBG cell, as RAP)."),
+    mode: Optional[str] = typer.Option(None, "--mode", hidden=True,
+                                       help="Deprecated name of --space."),
     flush_rows: int = typer.Option(512, "--flush-rows", help="Commit a shard every N rows..."),
     flush_seconds: float = typer.Option(30.0, "--flush-seconds", help="...or every T seconds."),
     start_timeout: float = typer.Option(
@@ -55,7 +60,17 @@ def label(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Label operations (simulated success rate + start/goal images) into a Parquet dataset."""
+    from rap.enumerate import MODES
     from rap.errors import InputError
+
+    if mode is not None:  # --mode: the old name of --space, kept working
+        if space != "all" and space != mode:
+            raise InputError(f"--mode {mode!r} and --space {space!r}: --mode is the old name of "
+                             f"--space; give --space only")
+        space = mode
+    if space not in MODES:
+        flag = "--space" if mode is None else "--mode"
+        raise InputError(f"{flag} {space!r}: choose {' or '.join(MODES)}")
     from rap.farm import driver  # imports ray
 
     if preset not in driver.PRESETS:
@@ -70,7 +85,7 @@ def label(
     cfg = driver.LabelConfig(
         assemblies=tuple(assemblies), out=out, address=address, workers=workers,
         trials=trials if trials is not None else p_trials, seed=seed,
-        max_ops_per_assembly=max_ops_eff, directions_per_range=directions, mode=mode,
+        max_ops_per_assembly=max_ops_eff, directions_per_range=directions, mode=space,
         flush_rows=flush_rows, flush_seconds=flush_seconds, start_timeout_s=start_timeout,
         progress=not quiet and sys.stderr.isatty(),
         command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]))

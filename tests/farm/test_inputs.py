@@ -83,6 +83,14 @@ CASES = {
     "bad trials": (lambda t, e: ["label", GRID, "--out", str(t / "o"), "--trials", "0"], "--trials"),
     "bad directions": (lambda t, e: ["label", GRID, "--out", str(t / "o"),
                                      "--directions-per-range", "0"], "--directions-per-range"),
+    "bad space": (lambda t, e: ["label", GRID, "--out", str(t / "o"), "--space", "some"],
+                  "--space 'some': choose all or online"),
+    "bad --mode (the old name of --space)": (
+        lambda t, e: ["label", GRID, "--out", str(t / "o"), "--mode", "some"],
+        "--mode 'some': choose all or online"),
+    "--mode and --space disagree": (
+        lambda t, e: ["label", GRID, "--out", str(t / "o"), "--space", "online", "--mode", "all"],
+        "--mode 'all' and --space 'online': --mode is the old name of --space; give --space only"),
     "uncapped beyond the budget": (lambda t, e: ["label", GRID, big_grid(t), "--out", str(t / "o"),
                                                  "--max-ops-per-assembly", "0"],
                                    "more than 100,000 operations"),
@@ -111,6 +119,31 @@ def test_bad_input_one_line_exit_2_nothing_written(case, tmp_path, existing, cap
         assert "grid6.json" in err and "--max-ops-per-assembly" in err
     assert snapshot(tmp_path) == before_all  # nothing created, nothing changed
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("argv,space", [([], "all"), (["--space", "online"], "online"),
+                                        (["--mode", "online"], "online"),
+                                        (["--space", "online", "--mode", "online"], "online")])
+def test_space_and_its_old_name_mode_reach_the_farm_alike(argv, space, tmp_path, monkeypatch,
+                                                          capsys):
+    """``label --space`` takes plan --space's values; ``--mode``, hidden, still works."""
+    from rap.errors import InputError
+    from rap.farm import driver
+
+    seen = []
+
+    def prepare(cfg):
+        seen.append(cfg.mode)
+        raise InputError("stop before any work")
+
+    monkeypatch.setattr(driver, "prepare", prepare)
+    with pytest.raises(SystemExit) as exc:
+        main(["label", GRID, "--out", str(tmp_path / "o"), *argv])
+    assert (exc.value.code, seen) == (2, [space])
+    assert capsys.readouterr().err == "rap-farm: error: stop before any work\n"
+    main(["label", "--help"])  # exit status 0: main returns
+    help_text = capsys.readouterr().out
+    assert "--space" in help_text and "--mode" not in help_text
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root can write to a read-only directory")
