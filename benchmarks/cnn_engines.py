@@ -1,4 +1,4 @@
-"""The CNN's two inference engines under search: numpy (``rap.plan.fastcnn``) against torch.
+"""The CNN's two inference engines under search: numpy (``rap.model.fastcnn``) against torch.
 
 ``rap-farm plan`` in a fresh process uses the numpy engine (no 2.5 s torch import); the planning
 service and ``rap-farm experiment`` load torch once. This plans each assembly with ``search``
@@ -34,7 +34,8 @@ def main() -> None:
     from rap.plan.cache import ScoreCache
     from rap.plan.experiment import _params_and_seed
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import PredictorCnn, Scorer
+    from rap.model.inference import PredictorCnn
+    from rap.plan.scorers import Scorer
     from rap.plan.search import SearchPlanner
     from search import _NoSim  # benchmarks/search.py: a simulator that must not be called
 

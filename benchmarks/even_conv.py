@@ -1,7 +1,7 @@
 """Convolutions that skip the rows the pooling drops: the forward pass with and without, one run.
 
 Both inference engines compute only the even rows and columns of each convolution's output that
-the floor 2x2 max-pooling reads (``rap.model.cnn._even_conv``, ``rap.plan.fastcnn._conv_nhwc``).
+the floor 2x2 max-pooling reads (``rap.model.cnn._even_conv``, ``rap.model.fastcnn._conv_nhwc``).
 This times the shipped network both ways, interleaved (the best of seven passes over 256 pairs per
 batch size), and prints ms per operation and the ratio, with the largest difference of the logits.
 
@@ -36,7 +36,7 @@ def main() -> None:
     import numpy as np
     import torch
 
-    import rap.plan.fastcnn as fastcnn
+    import rap.model.fastcnn as fastcnn
     from rap.model.predict import Predictor
 
     rng = np.random.default_rng(0)

@@ -43,7 +43,8 @@ def main() -> None:
     from rap.io import load_assembly
     from rap.plan.cache import ScoreCache
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import PredictorCnn, Scorer
+    from rap.model.inference import PredictorCnn
+    from rap.plan.scorers import Scorer
     from rap.plan.search import SearchPlanner
     from rap.sim.params import SimParams
 

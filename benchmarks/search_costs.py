@@ -49,7 +49,9 @@ def profile(names, assemblies, params, seed, model) -> None:
     from rap.plan.cache import ScoreCache
     from rap.plan.experiment import method_planner
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import LocalSimulator, PredictorCnn, Scorer
+    from rap.model.inference import PredictorCnn
+    from rap.plan.local_simulator import LocalSimulator
+    from rap.plan.scorers import Scorer
 
     cnn = PredictorCnn.load(model)
     sim = LocalSimulator(processes=2, prestart=True)
@@ -88,7 +90,7 @@ def costs(model, problem, ops) -> tuple[dict, float]:
     rendering the images and, for a model that takes them, computing the descriptors)."""
     import numpy as np
 
-    from rap.plan.scorers import PredictorCnn
+    from rap.model.inference import PredictorCnn
 
     cnn = PredictorCnn.load(model)
     cnn._inputs(problem, ops[:8])
@@ -157,7 +159,7 @@ def main() -> None:
     from rap.io import load_assembly
     from rap.plan.experiment import _params_and_seed
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import PredictorCnn
+    from rap.model.inference import PredictorCnn
     from rap.plan.graph import reachable
 
     folder = ROOT / "assemblies" / "unseen"

@@ -110,7 +110,7 @@ def predictions(name: str, mirror: bool = False, model: Path | None = None,
                 what: str = "expected_score") -> dict:
     """key -> the hold-out model's (or ``model``'s) expected score (``what="prob_high"``: its
     P(high), what RAP acts on), for every operation of the graph."""
-    from rap.plan.scorers import PredictorCnn
+    from rap.model.inference import PredictorCnn
     from rap.plan.graph import reachable
 
     problem = problem_of(name)
@@ -124,7 +124,7 @@ def tables(name: str, dataset) -> dict:
     """{"pred": key -> expected score, "truth": key -> simulated score} for every operation."""
     import pyarrow.dataset as ds
 
-    from rap.plan.scorers import LocalSimulator
+    from rap.plan.local_simulator import LocalSimulator
     from rap.plan.graph import reachable
 
     problem = problem_of(name)

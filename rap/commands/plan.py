@@ -2,7 +2,7 @@
 
 Where the work happens:
 
-* by default, in this process: the CNN runs without torch where it can (``rap.plan.fastcnn``) and
+* by default, in this process: the CNN runs without torch where it can (``rap.model.fastcnn``) and
   a batch of eight or more simulations is spread over forked worker processes on this machine
   (``--workers``, default every CPU; ``LocalSimulator``), so a small plan takes a few seconds;
 * ``--address HOST:PORT|auto`` (or ``RAY_ADDRESS``, as in a Ray Job): on a Ray cluster, through a
@@ -318,7 +318,7 @@ def plan_command(
 
 
 def _load_cnn(model_path: str):
-    from rap.plan.scorers import PredictorCnn
+    from rap.model.inference import PredictorCnn
 
     return PredictorCnn.load(model_path, engine="auto")
 
@@ -329,7 +329,8 @@ def _plan_here(asm, method, params, root_seed, space, samples, model_path, cache
     from rap.plan.cache import ScoreCache
     from rap.plan.methods import make_planner
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import LocalSimulator, Scorer
+    from rap.plan.local_simulator import LocalSimulator
+    from rap.plan.scorers import Scorer
 
     # simulation workers first: they load the simulator while this process loads the model,
     # renders and scores (see LocalSimulator's prestart)
@@ -354,7 +355,7 @@ def _familiarity(asm, cnn, space: str, err, problem=None) -> None:
     """Warn when ``asm`` is far from what the model was trained on (checkpoint metadata)."""
     try:
         from rap.plan.problem import PlanningProblem
-        from rap.plan.scorers import familiarity_operations, model_familiarity
+        from rap.plan.familiarity import familiarity_operations, model_familiarity
         from rap.sim.params import SimParams
 
         problem = problem or PlanningProblem(asm, SimParams(), space=space)

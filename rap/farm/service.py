@@ -37,12 +37,14 @@ from ray.exceptions import RayTaskError
 
 from rap.assembly import Assembly
 from rap.errors import RapError
+from rap.model.inference import PredictorCnn
 from rap.operation import Operation
 from rap.plan.cache import CachedScore, ScoreCache
+from rap.plan.local_simulator import LocalSimulator
 from rap.plan.methods import make_planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanResult
-from rap.plan.scorers import Budget, LocalSimulator, PredictorCnn, Scorer
+from rap.plan.scorers import Budget, Scorer
 from rap.seeds import DEFAULT_ROOT_SEED
 
 from rap.farm.pool import SimPool

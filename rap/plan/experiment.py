@@ -28,11 +28,12 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from rap.errors import InputError
+from rap.model.inference import PredictorCnn
 from rap.plan.cache import ScoreCache
 from rap.plan.methods import PAPER_RAP, make_planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStatus
-from rap.plan.scorers import PredictorCnn, Scorer, SimBackend
+from rap.plan.scorers import Scorer, SimBackend
 
 __all__ = ["ExperimentRow", "holdout_model", "run_experiment", "summarise", "write_report",
            "EXPERIMENT_METHODS"]

@@ -117,7 +117,9 @@ def _local_plan(assembly, method: str, seed: int, processes: int = 1) -> dict:
     from rap.plan.cache import ScoreCache
     from rap.plan.methods import make_planner
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import LocalSimulator, PredictorCnn, Scorer
+    from rap.model.inference import PredictorCnn
+    from rap.plan.local_simulator import LocalSimulator
+    from rap.plan.scorers import Scorer
     from rap.sim.params import SimParams
 
     cnn = PredictorCnn.load(default_model_path(), engine="torch") if method == "rap" else None

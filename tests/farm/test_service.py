@@ -27,7 +27,8 @@ def test_service_serves_two_concurrent_requests_on_the_pool(ray_local):
     from rap.farm.service import PlanRequest, start_service
     from rap.plan.planners import SimPlanner
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import LocalSimulator, Scorer
+    from rap.plan.local_simulator import LocalSimulator
+    from rap.plan.scorers import Scorer
 
     hexagon = load_assembly(ASSEMBLIES / "hexagon.json")
     triangles = load_assembly(ASSEMBLIES / "triangles.json")

@@ -160,9 +160,9 @@ def test_a_descriptor_model_trains_scores_and_plans_with_both_engines(real_datas
     from rap.model.evaluate import score_checkpoint
     from rap.model.predict import Predictor
     from rap.model.train import train
-    from rap.plan.fastcnn import load_fast_predictor
+    from rap.model.fastcnn import load_fast_predictor
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import PredictorCnn
+    from rap.model.inference import PredictorCnn
     from rap.sim.params import SimParams
     import rap
 

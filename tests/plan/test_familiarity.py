@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from rap.io import load_assembly
+from rap.model.inference import PredictorCnn
+from rap.plan.familiarity import (FAMILIARITY_OPERATIONS, familiarity_operations,
+                                  foreground_stats, model_familiarity)
 from rap.plan.problem import PlanningProblem
-from rap.plan.scorers import (FAMILIARITY_OPERATIONS, PredictorCnn, familiarity_operations,
-                              model_familiarity)
 from rap.sim.params import SimParams
 
 from tests.plan.cases import ROOT, six
@@ -58,3 +59,15 @@ def test_loud_on_images_unlike_the_training_images(cnn):
     notes = model_familiarity(cnn.meta, "not-trained", np.full_like(images, 255))  # all foreground
     assert len(unlike(notes)) == 1 and "z-scores" in notes[0]
     assert not any("training data:" in n for n in model_familiarity(cnn.meta, "x", images))
+
+
+def test_foreground_stats_match_the_training_statistics():
+    pytest.importorskip("pyarrow")
+    from rap.model.data import image_stats
+
+    problem = PlanningProblem(six("triangles"), SimParams())
+    images = PredictorCnn(None).images(problem, problem.candidates(problem.whole))
+    ref = image_stats([images])
+    new = foreground_stats(images)
+    np.testing.assert_allclose(new["foreground_mean"], ref["foreground_mean"])
+    np.testing.assert_allclose(new["coarse_foreground"], ref["coarse_foreground"], atol=1e-5)

@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import pytest
 
 from rap.plan.problem import PlanningProblem
-from rap.plan.scorers import LocalSimulator
+from rap.plan.local_simulator import LocalSimulator
 from rap.sim.params import SimParams
 from tests.plan.cases import ROW3, memory
 
@@ -27,7 +27,7 @@ def test_prestarted_workers_take_every_batch_and_give_the_in_process_scores():
     problem, ops = _problem()
     sim = LocalSimulator(processes=2, prestart=True)
     try:
-        assert sim.prestarted and sim._executor is not None  # forked at construction
+        assert sim.prestarted and len(sim.workers) == 2  # forked at construction
         one = sim.simulate_many(problem, ops[:1])  # a batch of one goes to the workers too
         pooled = sim.simulate_many(problem, ops)
     finally:
@@ -36,12 +36,24 @@ def test_prestarted_workers_take_every_batch_and_give_the_in_process_scores():
     assert pooled == here and one == here[:1]
 
 
+def test_worker_processes_give_the_in_process_scores():
+    problem, ops = _problem()
+    assert len(ops) >= 2
+    sim = LocalSimulator(processes=2, min_batch=2)
+    try:
+        pooled = sim.simulate_many(problem, ops)
+        assert len(sim.workers) == 2  # a batch of min_batch operations went to the workers
+    finally:
+        sim.close()
+    assert pooled == LocalSimulator().simulate_many(problem, ops)
+
+
 def test_close_stops_workers_that_are_still_loading():
     sim = LocalSimulator(processes=2, prestart=True)
-    workers = list(sim._executor._processes.values())
+    workers = list(sim.workers)
     assert len(workers) == 2
     sim.close()
-    assert sim._executor is None
+    assert sim.workers == []
     assert all(not w.is_alive() for w in workers)
 
 
@@ -50,11 +62,11 @@ def test_a_killed_worker_falls_back_to_this_process():
     sim = LocalSimulator(processes=2, prestart=True)
     try:
         sim.simulate_many(problem, ops[:1])
-        for w in list(sim._executor._processes.values()):
+        for w in list(sim.workers):
             os.kill(w.pid, signal.SIGKILL)
             w.join()
         scores = sim.simulate_many(problem, ops)
-        assert not sim.prestarted and sim._executor is None
+        assert not sim.prestarted and sim.workers == []
     finally:
         sim.close()
     assert scores == LocalSimulator().simulate_many(problem, ops)
@@ -69,6 +81,6 @@ def test_an_injected_simulator_is_never_forked():
 
     problem, ops = _problem()
     sim = LocalSimulator(fake, processes=2, prestart=True)
-    assert not sim.prestarted and sim._executor is None
+    assert not sim.prestarted and sim.workers == []
     assert [s.score for s in sim.simulate_many(problem, ops)] == [1.0] * len(ops)
     assert calls == ops

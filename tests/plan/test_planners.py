@@ -9,12 +9,13 @@ import numpy as np
 import pytest
 
 from rap.plan.cache import ScoreCache
+from rap.plan.local_simulator import LocalSimulator
 from rap.plan.methods import (METHODS, PAPER_RAP, RAP_FALLBACK_OPTIMISM,
                               RAP_HIGH_PROBABILITY, make_planner)
 from rap.plan.planners import OptimalPlanner, RapPlanner, SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStatus, is_assembly_order
-from rap.plan.scorers import Budget, LocalSimulator, Scorer
+from rap.plan.scorers import Budget, Scorer
 from rap.plan.validate import check_plan
 from rap.sim.params import SimParams
 
@@ -90,8 +91,8 @@ def test_rap_fallback_k_all_is_the_papers_rule_and_k_limits_the_simulations():
     whole = problem.candidates(problem.whole)
     top = max(range(len(whole)), key=lambda j: (low(whole[j]), -j))
     assert frozenset(one.steps[-1].moving) == whole[top].moving  # k = 1: the model's choice
-    with pytest.raises(ValueError):
-        RapPlanner(fallback_k=0)
+    with pytest.raises(ValueError, match="fallback_k 0: choose an integer >= 1"):
+        make_planner("rap", fallback_k=0)  # the options are checked where declared
 
 
 def test_rap_takes_the_most_confident_high_candidate_without_simulating():
@@ -214,5 +215,5 @@ def test_rap_defaults_and_a_capped_best_first_fallback():
     assert capped.stats["fallbacks"] == capped.stats["decisions"]
     assert capped.stats["fallback_candidates"] <= 3 * capped.stats["decisions"]
     assert check_plan(problem.assembly, capped.steps) == []
-    with pytest.raises(ValueError):
-        RapPlanner(fallback_optimism=1.5)
+    with pytest.raises(ValueError, match=r"fallback_optimism 1.5: choose a number in \[0, 1\]"):
+        make_planner("rap", fallback_optimism=1.5)

@@ -1,26 +1,26 @@
-"""The torch-free CNN (rap.plan.fastcnn) against torch, the quick local simulator, plan documents."""
+"""The torch-free engine of the CNN (rap.model.fastcnn) against torch, and PredictorCnn's calls
+(rap.model.inference) in both engines."""
 
 from __future__ import annotations
 
-import json
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from rap.plan.fastcnn import _conv_nhwc, load_fast_predictor, read_torch_checkpoint
+import rap
+from rap.io import load_assembly
+from rap.model.fastcnn import _conv_nhwc, load_fast_predictor, read_torch_checkpoint
+from rap.model.inference import PredictorCnn
 from rap.plan.problem import PlanningProblem
-from rap.plan.result import PlanResult
-from rap.plan.scorers import LocalSimulator, PredictorCnn, foreground_stats
 from rap.sim.params import SimParams
 
-from tests.plan.cases import FRAMED_HOLE, ROW3, memory, six
+DATA = Path(rap.__file__).parent / "data"
 
 
-def _images(name: str) -> np.ndarray:
-    problem = PlanningProblem(six(name), SimParams())
-    ops = [op for s in (problem.whole,) for op in problem.candidates(s)]
-    return PredictorCnn(None).images(problem, ops)
+def six(name: str):
+    return load_assembly(DATA / "assemblies" / f"{name}.json")
 
 
 def _inputs(name: str, predictor) -> tuple[np.ndarray, np.ndarray | None]:
@@ -34,9 +34,7 @@ def _inputs(name: str, predictor) -> tuple[np.ndarray, np.ndarray | None]:
 
 def test_shipped_model_runs_without_torch_and_agrees_with_torch():
     torch_predict = pytest.importorskip("rap.model.predict")
-    from rap.commands.plan import default_model_path
-
-    path = default_model_path()
+    path = DATA / "default_model.pt"
     fast = load_fast_predictor(path)
     assert fast is not None, "the shipped checkpoint should run in numpy"
     slow = torch_predict.Predictor.load(path)
@@ -51,9 +49,7 @@ def test_shipped_model_runs_without_torch_and_agrees_with_torch():
 
 def test_both_numbers_from_one_pass_equal_the_separate_calls_in_torch_and_numpy():
     torch_predict = pytest.importorskip("rap.model.predict")
-    from rap.commands.plan import default_model_path
-
-    path = default_model_path()
+    path = DATA / "default_model.pt"
     problem = PlanningProblem(six("hexagon"), SimParams())
     ops = list(problem.candidates(problem.whole))
     for engine in ("auto", "torch"):
@@ -69,9 +65,7 @@ def test_both_numbers_from_one_pass_equal_the_separate_calls_in_torch_and_numpy(
 
 def test_mirror_averaging_is_the_mean_of_both_passes_in_torch_and_numpy():
     torch_predict = pytest.importorskip("rap.model.predict")
-    from rap.commands.plan import default_model_path
-
-    path = default_model_path()
+    path = DATA / "default_model.pt"
     fast, slow = load_fast_predictor(path), torch_predict.Predictor.load(path)
     images, d = _inputs("hexagon", fast)  # descriptors are mirror-invariant: the same for both
     flipped = np.ascontiguousarray(images[..., ::-1])
@@ -148,13 +142,11 @@ def test_even_convolution_is_the_full_one_without_the_rows_pooling_drops(size, k
 def test_anything_but_the_known_architecture_is_left_to_torch(tmp_path):
     import zipfile
 
-    from rap.commands.plan import default_model_path
-
     assert load_fast_predictor(tmp_path / "missing.pt") is None
     (tmp_path / "junk.pt").write_bytes(b"not a zip")
     assert load_fast_predictor(tmp_path / "junk.pt") is None
     # a pickle that names another global is refused, not executed
-    src = zipfile.ZipFile(default_model_path())
+    src = zipfile.ZipFile(DATA / "default_model.pt")
     with zipfile.ZipFile(tmp_path / "evil.pt", "w") as dst:
         for name in src.namelist():
             data = src.read(name)
@@ -165,45 +157,3 @@ def test_anything_but_the_known_architecture_is_left_to_torch(tmp_path):
     with pytest.raises(pickle.UnpicklingError, match="os.system is not admitted"):
         read_torch_checkpoint(tmp_path / "evil.pt")
     assert load_fast_predictor(tmp_path / "evil.pt") is None
-
-
-def test_foreground_stats_match_the_training_statistics():
-    pytest.importorskip("pyarrow")
-    from rap.model.data import image_stats
-
-    images = _images("triangles")
-    ref = image_stats([images])
-    new = foreground_stats(images)
-    np.testing.assert_allclose(new["foreground_mean"], ref["foreground_mean"])
-    np.testing.assert_allclose(new["coarse_foreground"], ref["coarse_foreground"], atol=1e-5)
-
-
-def test_worker_processes_give_the_in_process_scores():
-    asm = memory(ROW3)
-    problem = PlanningProblem(asm, SimParams(trials=6), root_seed=11)
-    ops = list(problem.candidates(problem.whole))
-    assert len(ops) >= 2
-    sim = LocalSimulator(processes=2, min_batch=2)
-    try:
-        pooled = sim.simulate_many(problem, ops)
-        assert sim._executor is not None or not __import__("sys").platform.startswith("linux")
-    finally:
-        sim.close()
-    assert pooled == LocalSimulator().simulate_many(problem, ops)
-
-
-@pytest.mark.parametrize("doc", [ROW3, FRAMED_HOLE], ids=["found", "interlocked"])
-def test_plan_documents_read_back_exactly(doc):
-    from rap.plan.cache import ScoreCache
-    from rap.plan.planners import SimPlanner
-    from rap.plan.scorers import Scorer
-
-    problem = PlanningProblem(memory(doc), SimParams(trials=4))
-    result = SimPlanner().solve(problem, Scorer(LocalSimulator(), cache=ScoreCache()))
-    text = json.dumps(result.to_json())
-    back = PlanResult.from_json(json.loads(text))
-    assert back.to_json() == result.to_json()
-    assert back.status is result.status and back.message == result.message
-    assert [s.to_json() for s in back.steps] == [s.to_json() for s in result.steps]
-    with pytest.raises(ValueError):
-        PlanResult.from_json({"feasible": True})

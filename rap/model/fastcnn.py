@@ -20,7 +20,7 @@ Contract:
   is executed; the unpickler admits three globals (``OrderedDict``, torch's tensor rebuild
   function and storage types), which it maps to numpy.
 * Results equal torch's to float32 rounding (about 1e-6 in P(high));
-  ``tests/plan/test_fastcnn.py`` compares both on the shipped model and on a freshly built network,
+  ``tests/model/test_fastcnn.py`` compares both on the shipped model and on a freshly built network,
   so a change of ``RobustnessCNN`` that this module does not follow fails there.
 
 Cost: about 23 M multiply-adds per image pair (the convolutions skip the output rows and columns
