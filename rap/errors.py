@@ -13,7 +13,7 @@
 =====  =====================================================================================
 """
 
-__all__ = ["RapError", "InputError", "WorkFailedError", "StorageError", "EXIT_OK",
+__all__ = ["RapError", "InputError", "ParameterError", "WorkFailedError", "StorageError", "EXIT_OK",
            "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_FAILED", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
 
 EXIT_OK = 0
@@ -32,6 +32,21 @@ class RapError(Exception):
 
 class InputError(RapError):
     """Bad input: a file, an option or a dataset that cannot be used. Exit status 2."""
+
+
+class ParameterError(InputError, ValueError):
+    """A library call's ``parameter`` given a ``value`` it refuses, and why (``reason``). The
+    message names the parameter (``trust 0.0: choose a score in (0, 1]``); a command shows
+    ``for_name(its flag)`` instead (``--trust 0.0: ...``). Exit status 2."""
+
+    def __init__(self, parameter: str, value, reason: str):
+        self.parameter, self.value, self.reason = parameter, value, reason
+        super().__init__(self.for_name(parameter))
+
+    def for_name(self, name: str) -> str:
+        """The message with ``name`` (e.g. a command's flag) in place of the parameter's."""
+        shown = repr(self.value) if isinstance(self.value, str) else self.value
+        return f"{name} {shown}: {self.reason}"
 
 
 class WorkFailedError(RapError):

@@ -35,24 +35,18 @@ from pathlib import Path
 
 from rap.assembly import LIMITS, Assembly, AssemblyError, json_error_reason
 from rap.io import load_assembly, parse_assembly
-from rap.errors import InputError
-from rap.plan.methods import DEFAULT_METHOD, METHODS
+from rap.errors import InputError, ParameterError
+from rap.plan.methods import DEFAULT_METHOD, METHODS, service_options
 from rap.seeds import DEFAULT_ROOT_SEED
 
 __all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "read_upload", "is_loopback",
            "REQUEST_KEYS", "DETAILS_HEADER", "PLANNER_OPTIONS", "UPLOAD_SUFFIXES"]
 
 REQUEST_KEYS = ("assembly", "method", "seed", "options")
-# option -> (methods it applies to, kind, low, high, low inclusive): make_planner's keywords
-PLANNER_OPTIONS = {
-    "simulations": (("search",), int, 0, None, True),
-    "trust": (("search",), float, 0.0, 1.0, False),
-    "optimism": (("search",), float, 0.0, 1.0, True),
-    "beam_width": (("search",), int, 1, None, True),
-    "fallback_k": (("rap",), int, 1, None, True),
-    "high_probability": (("rap",), float, 0.0, 1.0, False),
-    "fallback_optimism": (("rap",), float, 0.0, 1.0, True),
-}
+# option -> (methods it applies to, kind, low, high, low inclusive): make_planner's keywords, as
+# the methods declare them (rap.plan.methods), for the API's schema
+PLANNER_OPTIONS = {name: (methods, opt.kind, opt.low, opt.high, not opt.low_open)
+                   for name, (opt, methods) in service_options().items()}
 UPLOAD_SUFFIXES = (".dxf", ".svg", ".json")  # what POST /import and /inspect read
 DETAILS_HEADER = "X-Plan-Details"  # {"eval_seconds", "stats"} of an answered plan (rap.client)
 
@@ -120,29 +114,34 @@ def _reject_constant(name: str):
 
 
 def _planner_options(raw, method: str, max_simulations: int) -> dict:
-    """The ``options`` object of a request, checked against ``PLANNER_OPTIONS``."""
+    """The ``options`` object of a request, checked by the method's declarations
+    (``rap.plan.methods``; ``PLANNER_OPTIONS``)."""
     if not isinstance(raw, dict):
         raise BadRequest(400, "options must be a JSON object, e.g. {\"simulations\": 200, "
                               "\"optimism\": 0.1}")
+    accepted = service_options()
+    declared = {o.name: o for o in METHODS[method].declared() if o.service}
     out = {}
     for key, value in raw.items():
-        if key not in PLANNER_OPTIONS:
+        if key not in accepted:
             raise BadRequest(400, f"options: unknown option {key!r} (expected "
-                                  f"{', '.join(PLANNER_OPTIONS)})")
-        methods, kind, low, high, low_inclusive = PLANNER_OPTIONS[key]
-        if method not in methods:
-            raise BadRequest(400, f"options.{key} applies to method {' or '.join(methods)}, not "
-                                  f"{method!r}")
-        ok_type = (isinstance(value, int) if kind is int
+                                  f"{', '.join(accepted)})")
+        opt = declared.get(key)
+        if opt is None:
+            raise BadRequest(400, f"options.{key} applies to method "
+                                  f"{' or '.join(accepted[key][1])}, not {method!r}")
+        ok_type = (isinstance(value, int) if opt.kind is int
                    else isinstance(value, (int, Decimal))) and not isinstance(value, bool)
         if not ok_type:
             raise BadRequest(400, f"options.{key} {value!r}: must be "
-                                  f"{'an integer' if kind is int else 'a number'}")
-        v = kind(value)
-        if (v < low if low_inclusive else v <= low) or (high is not None and v > high):
-            span = (f"lie in {'[' if low_inclusive else '('}{low}, {high}]" if high is not None
-                    else f"be >= {low}")
-            raise BadRequest(400, f"options.{key} {v}: must {span}")
+                                  f"{'an integer' if opt.kind is int else 'a number'}")
+        v = opt.kind(value)
+        try:
+            opt.check(v)
+        except ParameterError:
+            span = (f"lie in {'(' if opt.low_open else '['}{opt.low}, {opt.high}]"
+                    if opt.high is not None else f"be >= {opt.low}")
+            raise BadRequest(400, f"options.{key} {v}: must {span}") from None
         out[key] = v
     if out.get("simulations", 0) > max_simulations:
         raise BadRequest(413, f"options.simulations {out['simulations']}: this service allows at "

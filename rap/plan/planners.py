@@ -185,18 +185,14 @@ class RapPlanner(_Greedy):
 
     ``fallback_optimism = 1`` (the default) never stops early: every candidate (or the
     ``fallback_k`` most confident) is simulated in one batch, the paper's rule with
-    ``high_probability = 0.5``. ``rap.plan.methods`` holds the defaults chosen on held-out
-    assemblies (``RAP_HIGH_PROBABILITY``, ``RAP_FALLBACK_OPTIMISM``).
+    ``high_probability = 0.5``. ``rap.plan.methods.RapOptions`` declares the options (ranges,
+    and the defaults chosen on held-out assemblies) and checks them; they are not checked here.
     """
 
     name = "rap"
 
     def __init__(self, high_probability: float = HIGH_PROBABILITY, fallback_k: int | None = None,
                  fallback_optimism: float = 1.0):
-        if fallback_k is not None and fallback_k < 1:
-            raise ValueError("fallback_k must be >= 1 (None: every candidate)")
-        if not 0.0 <= fallback_optimism <= 1.0:
-            raise ValueError("fallback_optimism must lie in [0, 1] (1: the paper's fallback)")
         self.high_probability = float(high_probability)
         self.fallback_k = fallback_k
         self.fallback_optimism = float(fallback_optimism)
@@ -286,13 +282,12 @@ class OptimalPlanner(Planner):
 
 
 class RandomPlanner(Planner):
-    """``samples`` random sequences (uniform split at each subassembly); see module doc."""
+    """``samples`` (>= 1, checked by ``rap.plan.methods.RandomOptions``) random sequences
+    (uniform split at each subassembly); see module doc."""
 
     name = "random"
 
     def __init__(self, samples: int = 50):
-        if samples < 1:
-            raise ValueError("samples must be >= 1")
         self.samples = int(samples)
 
     def _search(self, problem, scorer, stats):

@@ -28,11 +28,11 @@ from typing import Callable, Iterable
 
 from rap.assembly import Assembly
 from rap.enumerate import label_key, label_seed
-from rap.errors import InputError
+from rap.errors import ParameterError
 from rap.operation import Operation
 from rap.seeds import DEFAULT_ROOT_SEED
 
-__all__ = ["SPACES", "PlanningProblem", "PartitionFn", "minimal_interlocked"]
+__all__ = ["SPACES", "check_space", "PlanningProblem", "PartitionFn", "minimal_interlocked"]
 
 SPACES = ("online", "all")
 
@@ -53,6 +53,12 @@ def _ndbg_partition_fn(assembly: Assembly, space: str) -> PartitionFn:
     return fn
 
 
+def check_space(space: str) -> None:
+    """``ParameterError`` (parameter ``space``) unless ``space`` is one of ``SPACES``."""
+    if space not in SPACES:
+        raise ParameterError("space", space, f"choose {' or '.join(SPACES)}")
+
+
 @dataclass
 class PlanningProblem:
     """Plan an assembly sequence for ``assembly`` over the operation ``space`` (see module doc)."""
@@ -66,8 +72,7 @@ class PlanningProblem:
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
     def __post_init__(self):
-        if self.space not in SPACES:
-            raise InputError(f"--space {self.space!r}: choose one of {', '.join(SPACES)}")
+        check_space(self.space)
         self.root_seed = int(self.root_seed)
 
     # -- identity of operations -----------------------------------------------------------------

@@ -104,19 +104,14 @@ class _Scores:
 
 
 class SearchPlanner(Planner):
-    """See the module docstring."""
+    """See the module docstring. ``rap.plan.methods.SearchOptions`` declares the options (ranges,
+    defaults) and checks them; they are not checked here."""
 
     name = "search"
 
     def __init__(self, beam_width: int = DEFAULT_BEAM, max_operations: int = DEFAULT_MAX_OPERATIONS,
                  simulations: int = 0, trust: float | None = None, lazy: bool = True,
                  optimism: float = 0.0):
-        if beam_width < 1 or max_operations < 1 or simulations < 0:
-            raise ValueError("beam_width, max_operations >= 1 and simulations >= 0")
-        if trust is not None and not 0.0 < trust <= 1.0:
-            raise ValueError("trust must lie in (0, 1]")
-        if not 0.0 <= optimism <= 1.0:
-            raise ValueError("optimism must lie in [0, 1]")
         self.optimism = float(optimism)
         self.beam_width = int(beam_width)
         self.max_operations = int(max_operations)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from rap.plan.cache import ScoreCache
+from rap.plan.methods import make_planner
 from rap.plan.planners import OptimalPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanStatus
@@ -127,8 +128,8 @@ def test_trust_above_every_prediction_changes_nothing():
     a = SearchPlanner(simulations=12).solve(problem, scorer(_noisy_model(1, top=0.99)))
     b = SearchPlanner(simulations=12, trust=0.995).solve(problem, scorer(_noisy_model(1, top=0.99)))
     assert tree(a) == tree(b) and a.stats["search_simulations"] == b.stats["search_simulations"]
-    with pytest.raises(ValueError):
-        SearchPlanner(trust=0.0)
+    with pytest.raises(ValueError, match=r"trust 0.0: choose a score in \(0, 1\]"):
+        make_planner("search", trust=0.0)  # the options are checked where declared
 
 
 @pytest.mark.parametrize("name", SIX)
@@ -155,8 +156,8 @@ def test_optimism_trades_simulations_for_robustness_monotonically_here():
     assert all(r.robustness <= best.robustness + 1e-12 for r in runs)
     # the plan's reported prediction is the plain one (simulated, else predicted), not raised
     assert runs[2].stats["predicted_robustness"] == pytest.approx(best.robustness)
-    with pytest.raises(ValueError):
-        SearchPlanner(optimism=1.5)
+    with pytest.raises(ValueError, match="optimism 1.5"):
+        make_planner("search", optimism=1.5)
 
 
 def test_a_spent_budget_under_optimism_chooses_by_what_is_known():
