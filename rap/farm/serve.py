@@ -88,7 +88,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from rap import __version__
 from rap.assembly import Assembly, assembly_to_json
 from rap.errors import InputError, RapError
-from rap.plan.methods import DEFAULT_METHOD, METHODS
+from rap.plan.methods import DEFAULT_METHOD, METHODS, needs_model
 from rap.plan.scorers import Budget
 from rap.seeds import DEFAULT_ROOT_SEED
 
@@ -252,7 +252,7 @@ class PlanningApp:
                                     max_optimal_parts=self.config.max_optimal_parts,
                                     max_simulations=self.config.max_simulations,
                                     max_vertices=self.config.max_vertices)
-        if parsed[1] in ("rap", "search") and self.service.cnn is None:
+        if needs_model(parsed[1]) and self.service.cnn is None:
             raise BadRequest(400, f"method {parsed[1]!r}: this service has no CNN model; ask for "
                                   f"method sim")
         return parsed
