@@ -16,6 +16,7 @@ switch authentication off (docs/CLUSTER.md).
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import socket
 from dataclasses import dataclass
@@ -26,6 +27,11 @@ import ray
 from rap.errors import InputError
 
 __all__ = ["RayRuntime", "connect", "node_label", "cluster_cpus"]
+
+# Ray's notice, at every local start, that it turned token authentication on by default stays off
+# the user's console (the module doc and docs/CLUSTER.md say so); its other warnings stay.
+logging.getLogger("ray._private.authentication.authentication_token_setup").addFilter(
+    lambda record: not record.getMessage().startswith("Token authentication is enabled for this"))
 
 
 @dataclass(frozen=True)

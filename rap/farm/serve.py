@@ -487,11 +487,10 @@ def run_service(config: ServeConfig, *, address: str | None = None,
                     pass
                 echo("stopping the planning service ...")
             finally:
-                try:
-                    if rt.started_here:
-                        serve.shutdown()
-                    else:
-                        serve.delete(APP_NAME)
+                try:  # the application only: an embedded Ray takes Serve's actors with it, and
+                    # serve.shutdown() would print Ray's "(raylet) Task ServeController.
+                    # graceful_shutdown failed ..." on the user's console
+                    serve.delete(APP_NAME)
                 except Exception:
                     pass
     finally:
