@@ -4,7 +4,8 @@ Every relative Markdown link or image (``[text](path)``, ``[text](path#anchor)``
 existing file or directory, and an anchor into a Markdown file must be one of its headings (as
 GitHub makes them: lower case, punctuation dropped, spaces as hyphens). Every Python file the docs
 name under scripts/, benchmarks/, research/, tests/, jobs/ or rap/ (in a command or in prose) must
-exist, so a moved script or module shows here. README.md
+exist, and so must every dotted ``rap.`` name (a module, or a name a module or package defines),
+so a moved script or module shows here. README.md
 stays short: at most ``README_MAX_LINES`` lines, the rest lives in docs/ by topic. Reads text
 only; nothing is run.
 """
@@ -22,6 +23,7 @@ README_MAX_LINES = 150
 
 _LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 _SCRIPT = re.compile(r"(?<![\w./-])((?:scripts|benchmarks|research|tests|jobs|rap)/[\w./-]*\.py)\b")
+_MODULE = re.compile(r"(?<![\w./-])rap(?:\.[A-Za-z_]\w*)+")
 _FENCE = re.compile(r"^(```|~~~)")
 
 
@@ -98,6 +100,33 @@ def test_named_python_files_exist(doc: Path) -> None:
     missing = sorted({p for p in _SCRIPT.findall(doc.read_text(encoding="utf-8"))
                       if not (ROOT / p).is_file()})
     assert not missing, f"{doc.relative_to(ROOT)} names Python files that do not exist: {missing}"
+
+
+def module_exists(name: str) -> bool:
+    """Whether the dotted ``name`` is a module of rap/ or a name defined in one (``rap.x.NAME``)."""
+    path = ROOT / "rap"
+    for part in name.split(".")[1:]:
+        if (path / part).is_dir():
+            path = path / part
+        elif (path / f"{part}.py").is_file():
+            return True  # what follows is an attribute of the module
+        else:
+            init = path / "__init__.py"
+            return init.is_file() and re.search(rf"\b{part}\b", init.read_text("utf-8")) is not None
+    return True
+
+
+def test_module_exists() -> None:
+    assert module_exists("rap.geometry.ndbg") and module_exists("rap.dataset.SCHEMA")
+    assert module_exists("rap.geometry.families.generate")
+    assert not module_exists("rap.plan.no_such_module")
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_named_modules_exist(doc: Path) -> None:
+    missing = sorted({m for m in _MODULE.findall(doc.read_text(encoding="utf-8"))
+                      if not module_exists(m)})
+    assert not missing, f"{doc.relative_to(ROOT)} names rap modules that do not exist: {missing}"
 
 
 def test_readme_is_short() -> None:
