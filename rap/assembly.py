@@ -357,12 +357,12 @@ def read_assembly_json(path: str | Path) -> Assembly:
                                           f"assembly file is read up to that size")
     for magic, kind in _BINARY_KINDS:
         if raw.startswith(magic):
-            raise AssemblyError(source, None, f"is {kind}, not an assembly JSON file")
+            raise AssemblyError(source, None, f"is {kind}, not an assembly (JSON, DXF or SVG)")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise AssemblyError(source, None, f"not a UTF-8 text file (byte {exc.start}); an assembly "
-                                          f"file is JSON") from None
+        raise AssemblyError(source, None, f"not UTF-8 text (byte {exc.start}), so not an assembly "
+                                          f"(JSON, DXF or SVG)") from None
     try:
         data = json.loads(text, parse_float=Decimal, parse_int=int, parse_constant=_reject_constant)
     except RecursionError:

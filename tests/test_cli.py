@@ -117,6 +117,20 @@ def test_the_console_script_refuses_to_run_without_a_command_module(tmp_path):
                             "RAP_DEBUG=1 shows the traceback)\n")
 
 
+@pytest.mark.parametrize("argv", [["plan"], ["inspect"], ["show", "-o", "a.png"],
+                                  ["label", "--out", "ds"],
+                                  ["simulate", "--moving", "a", "--direction", "1,0"]],
+                         ids=lambda a: a[0])
+def test_a_png_given_as_an_assembly_is_named_in_one_line(run_cli, argv, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "photo.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    code, out, err = run_cli(argv[0], "photo.png", *argv[1:])
+    assert (code, out) == (2, "")
+    assert err == ("rap-farm: error: photo.png: is a PNG image, not an assembly (JSON, DXF or "
+                   "SVG)\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["photo.png"]
+
+
 def test_usage_error_in_a_subprocess(tmp_path):
     """The console-script path (``python -m rap.cli``) with the installed CLI stack."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
