@@ -25,7 +25,7 @@ _NOT_GENERATED = ("reference", "custom")
 def plan_folds(dataset, by: str, assemblies: str | None, families: str | None):
     """[(kind, [test names])] for the dataset and options (see the module docstring)."""
     from rap.errors import InputError
-    from rap.model.train import dataset_families
+    from rap.model.trainset import dataset_families
 
     fams = dataset_families(dataset)
     all_names = sorted({a for v in fams.values() for a in v})

@@ -46,7 +46,7 @@ def experiment_command(
     """Compare RAP, sim-only, optimal and random planning on every assembly (paper, section 8)."""
     from rap.io import load_assembly
     from rap.errors import InputError
-    from rap.model.train import dataset_assemblies
+    from rap.model.trainset import dataset_assemblies
     from rap.plan.experiment import (EXPERIMENT_METHODS, method_planner, run_experiment,
                                      write_report)
 

@@ -27,7 +27,8 @@ from rap.dataset import IMAGE_BYTES
 from rap.model.cnn import ModelConfig
 from rap.model.data import RowStore, select
 from rap.model.metrics import expected_calibration_error, pool_reliability, reliability_table
-from rap.model.train import TrainConfig, dataset_assemblies, train
+from rap.model.train import TrainConfig, train
+from rap.model.trainset import dataset_assemblies
 
 __all__ = ["fold_specs", "run_fold", "sequential_folds", "cross_validate", "summary_rows",
            "write_report", "COLUMNS", "KINDS", "row_store"]
@@ -298,7 +299,7 @@ def group_metrics(groups: np.ndarray, scores: np.ndarray, trials: np.ndarray,
                   prob_high: np.ndarray, threshold: float, by: str = "assembly") -> list[dict]:
     """``classification_metrics`` per group (sorted) and over all rows (``{by: "all"}``, last)."""
     from rap.model.metrics import classification_metrics
-    from rap.model.train import successes_of
+    from rap.model.heldout import successes_of
 
     rows = []
     for name in [*sorted(set(groups.tolist())), None]:

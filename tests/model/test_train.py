@@ -91,22 +91,6 @@ def test_init_with_another_network_is_one_input_error(tiny_dataset, tmp_path):
         train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN, init=tmp_path / "none.pt")
 
 
-def test_calibration_split_by_assemblies_or_by_rows():
-    from rap.model.train import _split_validation
-
-    names = [f"a{i:02d}" for i in range(40)] + ["huge"]
-    rows = {n: 100 for n in names} | {"huge": 3000}  # 7,000 rows, 3,000 of them in one assembly
-    by_count = _split_validation(names, 0.1, 0)
-    assert len(by_count) == 4 and by_count == _split_validation(names, 0.1, 0)
-    by_rows = _split_validation(names, 0.1, 0, rows)
-    assert "huge" not in by_rows and sum(rows[n] for n in by_rows) == 700  # a tenth of the rows
-    assert by_rows == _split_validation(names, 0.1, 0, rows)
-    assert by_rows != _split_validation(names, 0.1, 1, rows)
-    # nothing fits: the smallest; never all; too few assemblies: none
-    assert _split_validation(["x", "y", "z"], 0.1, 0, {"x": 5, "y": 3, "z": 9}) == ["y"]
-    assert _split_validation(["x", "y"], 0.5, 0, {"x": 1, "y": 1}) == []
-
-
 def test_training_with_the_rows_split_records_it(tiny_dataset):
     cfg = replace(FAST_TRAIN, calibrate=True, val_by="rows", val_fraction=0.3)
     r = train(tiny_dataset, model_config=TINY_MODEL, config=cfg)
