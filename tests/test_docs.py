@@ -3,8 +3,8 @@
 Every relative Markdown link or image (``[text](path)``, ``[text](path#anchor)``) must name an
 existing file or directory, and an anchor into a Markdown file must be one of its headings (as
 GitHub makes them: lower case, punctuation dropped, spaces as hyphens). Every Python file the docs
-name under scripts/, benchmarks/, research/, tests/, jobs/ or rap/ (in a command or in prose) must
-exist, and so must every dotted ``rap.`` name (a module, or a name a module or package defines),
+name under scripts/, benchmarks/, research/, tests/, jobs/ or rap/ (in a command, ``python -m``
+included, or in prose) must exist, and so must every dotted ``rap.`` name (a module, or a name a module or package defines),
 so a moved script or module shows here. README.md
 stays short: at most ``README_MAX_LINES`` lines, the rest lives in docs/ by topic. Reads text
 only; nothing is run.
@@ -23,6 +23,7 @@ README_MAX_LINES = 150
 
 _LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 _SCRIPT = re.compile(r"(?<![\w./-])((?:scripts|benchmarks|research|tests|jobs|rap)/[\w./-]*\.py)\b")
+_RUN_MODULE = re.compile(r"\bpython3?\s+-m\s+((?:scripts|benchmarks|research|tests|jobs)(?:\.\w+)+)")
 _MODULE = re.compile(r"(?<![\w./-])rap(?:\.[A-Za-z_]\w*)+")
 _FENCE = re.compile(r"^(```|~~~)")
 
@@ -97,8 +98,10 @@ def test_relative_links_resolve(doc: Path) -> None:
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
 def test_named_python_files_exist(doc: Path) -> None:
-    missing = sorted({p for p in _SCRIPT.findall(doc.read_text(encoding="utf-8"))
-                      if not (ROOT / p).is_file()})
+    text = doc.read_text(encoding="utf-8")
+    named = set(_SCRIPT.findall(text))
+    named |= {m.replace(".", "/") + ".py" for m in _RUN_MODULE.findall(text)}
+    missing = sorted(p for p in named if not (ROOT / p).is_file())
     assert not missing, f"{doc.relative_to(ROOT)} names Python files that do not exist: {missing}"
 
 
