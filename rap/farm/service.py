@@ -132,7 +132,7 @@ class PlanningService:
     ``engine``: the CNN's inference engine (``PredictorCnn.load``); torch by default: a
     long-lived service pays its import once, and its forward pass is faster than the numpy
     engine's on small batches (search 1.10-1.18x faster on five unseen assemblies,
-    ``benchmarks/cnn_engines.py``)."""
+    ``research/benchmarks/cnn_engines.py``)."""
 
     def __init__(self, model_path: str | None = None, *, pool: SimPool | None = None,
                  workers: int | None = None, cache_path: str | None = None, device: str = "cpu",

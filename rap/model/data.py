@@ -297,7 +297,7 @@ class RowStore:
     def __init__(self, root: str | Path, order: str = "key"):
         """``order``: rows sorted by key (the default: training then depends on the rows, not
         on the order the farm committed its shards) or ``"dataset"``, as read (the order the
-        models of docs/RESULTS.md so far were trained in; ``scripts/ablation.py`` keeps it, so
+        models of docs/RESULTS.md so far were trained in; ``research/ablation.py`` keeps it, so
         that its table's rows sample the same training rows)."""
         if order not in ("key", "dataset"):
             raise ValueError(f"order {order!r}: key or dataset")

@@ -36,7 +36,7 @@ vertex, which is what the float stood for.
 Cost: building the NDBG once per assembly (``DescriptorContext``), then O(cells) integer work plus
 a shapely union per distinct set of parts and a boundary intersection per distinct (moving,
 fixed) pair (both cached): about 0.3 ms an operation, a quarter to a half of rendering its images
-(``python benchmarks/descriptors.py``).
+(``python -m research.benchmarks.descriptors``).
 """
 
 from __future__ import annotations

@@ -262,7 +262,7 @@ def score_checkpoint(model_path: str | Path, root: str | Path, *, by: str = "ass
         from rap.errors import InputError
 
         raise InputError(f"{model_path}: takes the {pred.view} view, rendered again from geometry; "
-                         f"score it with scripts/score_models.py")
+                         f"score it with python -m research.score_models")
     groups, scores, trials, probs = [], [], [], []
     import pyarrow.compute as pc
 

@@ -27,8 +27,8 @@ Cost: about 23 M multiply-adds per image pair (the convolutions skip the output 
 that the floor pooling drops, as ``RobustnessCNN`` does at inference): per stage one im2col copy
 (``kh`` strided copies of overlapping kernel rows) and one BLAS matmul, batch norm folded into the
 weights, pooling before bias and ReLU. 0.5-0.6 ms per operation on 2 cores at batches of 4-16
-(torch, once imported: 0.2-0.27 ms; ``python benchmarks/even_conv.py``), batches of ``CHUNK``
-images at a time to bound memory. No torch, no ray, no pyarrow.
+(torch, once imported: 0.2-0.27 ms; ``python -m research.benchmarks.even_conv``), batches of
+``CHUNK`` images at a time to bound memory. No torch, no ray, no pyarrow.
 """
 
 from __future__ import annotations

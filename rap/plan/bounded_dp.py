@@ -16,7 +16,7 @@ seen to keep the first maximiser). Memory: O(subassemblies visited).
 
 Cost: at most the full DP's work (every subassembly's candidates scored once); how much less
 depends on how the scores are spread, not on whether they are right (measured: docs/RESULTS.md,
-``python benchmarks/search.py``). Recursion depth at most the number of parts.
+``python -m research.benchmarks.search``). Recursion depth at most the number of parts.
 """
 
 from __future__ import annotations

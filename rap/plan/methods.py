@@ -38,7 +38,7 @@ METHODS: dict[str, type[PlannerOptions]] = {}
 DEFAULT_METHOD = "search"
 # RAP's defaults: a candidate is taken without simulation at P(high) >= 0.9, and the fallback
 # simulates best first with optimism 0.4. Chosen on ten fresh assemblies no model was trained on
-# (scripts/rap_validation.py --set fresh): 0.047 more robust than the paper's rule (P(high) >= 0.5,
+# (research/rap_validation.py --set fresh): 0.047 more robust than the paper's rule (P(high) >= 0.5,
 # every candidate simulated) for 9% more simulations; on the twelve unseen test assemblies within
 # 0.006 of simulator-only greedy (the paper's rule: 0.046 below it). docs/RESULTS.md, "RAP's
 # decision rule".

@@ -1,6 +1,6 @@
 """What a perfect scorer would still cost: bounds on issue 11's and issue 13's time targets.
 
-Replays the planners on ``scripts/search_validation.py``'s score tables (every operation of an
+Replays the planners on ``research/search_validation.py``'s score tables (every operation of an
 assembly's AND/OR graph with the model's expected score and the simulator's score) with the
 *simulator's scores standing in for the model's predictions*: a scorer that is never wrong. Three
 counts follow, none of them timed:
@@ -19,8 +19,8 @@ counts follow, none of them timed:
    paper's rule falls back to the simulator there, with every candidate. Their candidates against
    all of simulator-only's bound the speed-up that rule can reach by simulations alone.
 
-    python scripts/search_validation.py --set unseen      # builds the tables (once)
-    python scripts/planning_bounds.py --set unseen [--per-assembly]
+    python -m research.search_validation --set unseen      # builds the tables (once)
+    python -m research.planning_bounds --set unseen [--per-assembly]
 
 No simulation, no CNN: seconds. Cost: each graph is enumerated once (candidates memoised).
 """
@@ -34,10 +34,7 @@ import statistics
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "scripts"))
-
-import search_validation as sv  # noqa: E402
+from research.validation_tables import ROOT, LookupCnn, LookupSimulator, problem_of
 
 HIGH = 0.95  # the class threshold of the paper and the corpus
 
@@ -61,7 +58,7 @@ def search_counts(problem, truth: dict, pred: dict, r_opt: float,
 
     planner = (SearchPlanner() if beam_width is None
                else SearchPlanner(beam_width=beam_width, max_operations=1))
-    result = planner.solve(problem, Scorer(sv._LookupSim(truth), sv._LookupCnn(pred), ScoreCache()))
+    result = planner.solve(problem, Scorer(LookupSimulator(truth), LookupCnn(pred), ScoreCache()))
     r = math.prod(truth[problem.key(s.operation)] for s in result.steps)
     return r / r_opt, int(result.stats["predicted_operations"])
 
@@ -98,13 +95,13 @@ def main() -> None:
     a = ap.parse_args()
     path = a.cache / f"{a.set}.pkl"
     if not path.exists():
-        sys.exit(f"{path}: no score tables; run python scripts/search_validation.py --set {a.set}")
+        sys.exit(f"{path}: no score tables; run python -m research.search_validation --set {a.set}")
     tabs = pickle.loads(path.read_bytes())
     from rap.plan.graph import reachable
 
     rows = []
     for name, tab in tabs.items():
-        problem = sv.problem_of(name)  # its candidates are memoised: enumerated once
+        problem = problem_of(name)  # its candidates are memoised: enumerated once
         truth = tab["truth"]
         graph = reachable(problem)
         r_opt = optimum(problem, graph, truth)

@@ -7,7 +7,7 @@ batch, then the same DP), ``--repeats`` times each, interleaved; the plans must 
 Prints per assembly the operations scored and the median planning times, and the ratio of the
 totals (one run, so machine noise hits both alike).
 
-    python benchmarks/search.py [--model rap/data/default_model.pt] [--repeats 3] [NAME ...]
+    python -m research.benchmarks.search [--model rap/data/default_model.pt] [--repeats 3] [NAME ...]
 
 Assemblies are looked up in assemblies/, assemblies/unseen/ and datasets/corpus/_assemblies/.
 """
@@ -20,15 +20,16 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+ROOT = Path(__file__).resolve().parents[2]
 
 DEFAULT = ["grid", "hexagon", "mixed-square", "pentagons", "rectilinear", "triangles",
            "c-shapes-s20", "convex-s26", "fan-s12", "funnels-s2", "hub-s32", "knobs-s27",
            "packing-s25", "pegs-s5", "polyomino-s33", "wall-s4"]
 
 
-class _NoSim:
+class NoSimulator:
+    """A simulator backend that must not be called (search without simulations)."""
+
     def simulate_many(self, problem, ops):
         raise AssertionError("no simulation expected")
 
@@ -65,7 +66,7 @@ def main() -> None:
                 problem = PlanningProblem(asm, SimParams(), 1)
                 st = {}
                 t = time.perf_counter()
-                steps = SearchPlanner(lazy=lazy)._search(problem, Scorer(_NoSim(), cnn,
+                steps = SearchPlanner(lazy=lazy)._search(problem, Scorer(NoSimulator(), cnn,
                                                                          ScoreCache()), st)
                 times[lazy].append(time.perf_counter() - t)
                 plans[lazy] = [(s.moving, s.fixed, s.direction) for s in steps]

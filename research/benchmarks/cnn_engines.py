@@ -5,19 +5,16 @@ service and ``rap-farm experiment`` load torch once. This plans each assembly wi
 (no simulations: the model's cost only) on both engines, interleaved, and prints the best of
 ``--repeats`` times per assembly and the ratio of the totals (one run, so noise hits both alike).
 
-    python benchmarks/cnn_engines.py [--repeats 2] [NAME ...]   # default: five unseen assemblies
+    python -m research.benchmarks.cnn_engines [--repeats 2] [NAME ...]   # default: five unseen assemblies
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "benchmarks"))
+ROOT = Path(__file__).resolve().parents[2]
 
 DEFAULT = ["hub-s101", "convex-s102", "basketweave", "pegs-s103", "wall-s101"]
 
@@ -37,7 +34,7 @@ def main() -> None:
     from rap.model.inference import PredictorCnn
     from rap.plan.scorers import Scorer
     from rap.plan.search import SearchPlanner
-    from search import _NoSim  # benchmarks/search.py: a simulator that must not be called
+    from research.benchmarks.search import NoSimulator
 
     params, seed = _params_and_seed(args.dataset)
     engines = {"numpy": PredictorCnn.load(args.model, engine="auto"),
@@ -55,7 +52,7 @@ def main() -> None:
             for e, cnn in engines.items():
                 problem = PlanningProblem(asm, params, seed, "online")
                 t = time.perf_counter()
-                steps = SearchPlanner()._search(problem, Scorer(_NoSim(), cnn, ScoreCache()), {})
+                steps = SearchPlanner()._search(problem, Scorer(NoSimulator(), cnn, ScoreCache()), {})
                 best[e] = min(best[e], time.perf_counter() - t)
                 plans[e] = [problem.key(s.operation) for s in steps]
         same = "" if plans["numpy"] == plans["torch"] else "  (plans differ)"

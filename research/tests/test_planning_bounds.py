@@ -1,4 +1,4 @@
-"""scripts/planning_bounds.py: the counts behind the perfect-scorer bounds, on a reference graph
+"""research/planning_bounds.py: the counts behind the perfect-scorer bounds, on a reference graph
 with seeded scores (no simulation, no model)."""
 
 from __future__ import annotations
@@ -12,13 +12,13 @@ from rap.plan.graph import dp_choice, reachable
 from rap.plan.problem import PlanningProblem
 from rap.sim.params import SimParams
 
+from research import planning_bounds
 from tests.plan.cases import six
-from tests.scripts import load_script
 
 
 @pytest.fixture(scope="module")
 def bounds():
-    return load_script("planning_bounds")
+    return planning_bounds
 
 
 @pytest.fixture(scope="module")

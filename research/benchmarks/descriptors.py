@@ -1,6 +1,6 @@
 """What the geometric descriptors cost beside the images: per operation, in one run.
 
-    python benchmarks/descriptors.py [--repeats 3]
+    python -m research.benchmarks.descriptors [--repeats 3]
 
 For every online operation of the six reference assemblies (middle directions): the descriptors of
 ``rap.model.descriptors`` (a fresh ``DescriptorContext`` per assembly, its NDBG included, as a

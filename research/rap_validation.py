@@ -1,6 +1,6 @@
 """Choose RAP's decision rule on held-out assemblies without timing anything.
 
-Replays the greedy planners on ``scripts/search_validation.py``'s score tables (every operation of
+Replays the greedy planners on ``research/search_validation.py``'s score tables (every operation of
 an assembly's AND/OR graph with the model's P(high), its expected score and the simulator's score)
 through the real ``RapPlanner`` and ``SimPlanner`` with look-up backends, and prints for each RAP
 variant the mean robustness against simulator-only greedy's, the simulations it asked for and the
@@ -8,8 +8,8 @@ operations the CNN scored. Planning time is then priced from those counts by the
 costs measured on this machine (``--sim-cost``, ``--cnn-cost``), which is how the variants compare
 before a timed ``rap-farm experiment`` confirms the chosen one.
 
-    python scripts/search_validation.py --set unseen          # builds the tables first (once)
-    python scripts/rap_validation.py --set unseen --variants rap,rap-k1,rap-b10,rap-b20-p90
+    python -m research.search_validation --set unseen          # builds the tables first (once)
+    python -m research.rap_validation --set unseen --variants rap,rap-k1,rap-b10,rap-b20-p90
 """
 
 from __future__ import annotations
@@ -21,10 +21,7 @@ import statistics
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "scripts"))
-
-import search_validation as sv  # noqa: E402
+from research.validation_tables import ROOT, LookupCnn, LookupSimulator, assemblies_of, problem_of
 
 
 def replay(name: str, tab: dict, method: str) -> dict:
@@ -33,8 +30,8 @@ def replay(name: str, tab: dict, method: str) -> dict:
     from rap.plan.experiment import method_planner
     from rap.plan.scorers import Scorer
 
-    problem = sv.problem_of(name)
-    scorer = Scorer(sv._LookupSim(tab["truth"]), sv._LookupCnn(tab["pred"], tab["phigh"]), ScoreCache())
+    problem = problem_of(name)
+    scorer = Scorer(LookupSimulator(tab["truth"]), LookupCnn(tab["pred"], tab["phigh"]), ScoreCache())
     result = method_planner(method).solve(problem, scorer)
     r = math.prod(tab["truth"][problem.key(s.operation)] for s in result.steps)
     st = result.stats
@@ -60,13 +57,12 @@ def main() -> None:
         import rap.plan.planners
 
         rap.plan.planners.FALLBACK_ROUND = a.round
-    names = (list(sv.fresh_assemblies()) if a.set == "fresh"
-             else {"validation": sv.VALIDATION, "test": sv.TEST, "unseen": sv.UNSEEN}[a.set])
+    names = assemblies_of(a.set)
     tabs = pickle.loads((a.cache / f"{a.set}.pkl").read_bytes())
     missing = [n for n in names if n not in tabs or "phigh" not in tabs[n]]
     if missing:
         sys.exit(f"no tables with P(high) for {', '.join(missing)}: run "
-                 f"scripts/search_validation.py --set {a.set} first")
+                 f"python -m research.search_validation --set {a.set} first")
     base = {n: replay(n, tabs[n], "sim") for n in names}
     cost = lambda r: r["sims"] * a.sim_cost + r["cnn"] * a.cnn_cost  # noqa: E731
     t_sim = statistics.mean(cost(base[n]) for n in names)

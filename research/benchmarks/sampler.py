@@ -7,7 +7,7 @@ identical, 1 = disjoint) between the two distributions of: subassembly size, mov
 relative to the subassembly (4 bins), removal direction (8 bins of 45 degrees); and the sample's
 share of high-level operations (subassembly = the whole assembly). Then the pooled histograms.
 
-    python benchmarks/sampler.py [--seed 7] [--max-k 1000]
+    python -m research.benchmarks.sampler [--seed 7] [--max-k 1000]
 """
 
 from __future__ import annotations
@@ -15,13 +15,11 @@ from __future__ import annotations
 import argparse
 import itertools
 import math
-import sys
 import time
 from collections import Counter
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+ROOT = Path(__file__).resolve().parents[2]
 
 from rap.io import load_assembly  # noqa: E402
 from rap.enumerate import enumerate_operations, iter_sampled_operations  # noqa: E402

@@ -14,7 +14,7 @@ operations scored, the batches and the model time they would cost under the meas
   more operations);
 - ``eager``: the whole graph in one batch (``SearchPlanner(lazy=False)``).
 
-    python benchmarks/search_costs.py [--no-profile] [NAME ...]   # default: assemblies/unseen
+    python -m research.benchmarks.search_costs [--no-profile] [NAME ...]   # default: assemblies/unseen
 
 The replay's plans must equal ``lazy``'s (checked). One run, so machine noise hits all alike.
 """
@@ -22,12 +22,10 @@ The replay's plans must equal ``lazy``'s (checked). One run, so machine noise hi
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+ROOT = Path(__file__).resolve().parents[2]
 
 BATCHES = (1, 2, 4, 8, 16, 32, 64)
 

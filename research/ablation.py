@@ -1,6 +1,6 @@
 """The scorer's ablation: one row per change, on the same folds and seeds, at a fixed budget.
 
-    python scripts/ablation.py [--dataset datasets/corpus] [--out reports/ablation]
+    python -m research.ablation [--dataset datasets/corpus] [--out reports/ablation]
                                [--max-rows 20000] [--epochs 3] [--seed 0] [--variants a,b,...]
                                [--device cpu|cuda] [--batch-size 64]
 
@@ -19,12 +19,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 VARIANTS = [  # (name, overrides of the 'paper' recipe), cumulative
     ("paper", {}),

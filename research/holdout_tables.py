@@ -1,6 +1,6 @@
 """Leave-one-out tables from saved hold-out checkpoints, scored again on their held-out rows.
 
-    python scripts/holdout_tables.py MODELS_DIR [--dataset datasets/corpus] [--out FILE.md]
+    python -m research.holdout_tables MODELS_DIR [--dataset datasets/corpus] [--out FILE.md]
                                      [--mirror]
 
 Every ``holdout-NAME.pt`` (an assembly held out) and ``holdout-family-F.pt`` (a family held out)
@@ -15,11 +15,9 @@ writes two Markdown tables with their means (the ECE of the mean row is the mean
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 
 def main() -> None:

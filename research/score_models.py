@@ -1,6 +1,6 @@
 """Several checkpoints, and ensembles of them, on one labelled dataset: accuracy per assembly.
 
-    python scripts/score_models.py DATASET LABEL=MODEL.pt [LABEL=A.pt+B.pt+...] ... [--json OUT]
+    python -m research.score_models DATASET LABEL=MODEL.pt [LABEL=A.pt+B.pt+...] ... [--json OUT]
 
 Each ``LABEL=PATHS`` is one checkpoint or, with ``+``, an ensemble whose P(high) is the mean of its
 members'. Every model sees the images of its own view (``RowStore.view``: the close-up is rendered
@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 
 def main() -> None:

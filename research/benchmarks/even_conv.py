@@ -5,18 +5,16 @@ the floor 2x2 max-pooling reads (``rap.model.cnn._even_conv``, ``rap.model.fastc
 This times the shipped network both ways, interleaved (the best of seven passes over 256 pairs per
 batch size), and prints ms per operation and the ratio, with the largest difference of the logits.
 
-    python benchmarks/even_conv.py [--model PATH]
+    python -m research.benchmarks.even_conv [--model PATH]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+ROOT = Path(__file__).resolve().parents[2]
 
 BATCHES = (4, 8, 16, 64)
 
