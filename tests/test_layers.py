@@ -83,3 +83,12 @@ def test_layers_import_downward_only():
 def test_only_the_farm_imports_ray():
     users = {a for a, b in graph().edges if b == "ray"}
     assert users and all(u.startswith("rap.farm") for u in users), users
+
+
+def test_the_package_never_imports_the_research_or_its_tests():
+    """research/ (experiments), scripts/, benchmarks/ and tests/ sit beside the package: nothing in
+    rap imports them."""
+    outside = ("research", "scripts", "benchmarks", "tests")
+    bad = sorted(f"{module_name(p)} -> {t}" for p in RAP.rglob("*.py") for t in imports(p)
+                 if t.split(".")[0] in outside)
+    assert not bad, bad
