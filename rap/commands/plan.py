@@ -14,25 +14,27 @@ The same operation gets the same simulator seed everywhere, so scores do not dep
 were computed. Exit status 0 with a plan, 1 when the assembly is interlocked (no sequence of
 one-step translations exists), 2 for invalid input (or a request the service refused), 3 when the
 service fails.
+
+``plan_command`` runs three steps: ``_check_request`` (the method, the space and every planner
+option, by their declarations in ``rap.plan.methods``, which also make the options' flags),
+``_plan_by_service`` or ``_plan_with_workers``, and ``_show`` (table, ``--out``, ``--picture``).
 """
 
 from __future__ import annotations
 
-import json
 import os
-import tempfile
 import time
 from pathlib import Path
 
 import typer
 
-from rap.errors import EXIT_INFEASIBLE, InputError, RapError
-from rap.plan.methods import METHODS  # rap, sim, optimal, random, search
+from rap.commands._plan_output import print_result, write_plan_json
+from rap.errors import EXIT_INFEASIBLE, InputError, ParameterError, RapError
+from rap.plan.methods import (DEFAULT_METHOD, METHODS, RandomOptions, check_options,
+                              method_options, needs_model, option_named)
 
 __all__ = ["register", "plan_command", "InfeasiblePlan", "default_model_path", "print_result",
            "write_plan_json", "resolve_model"]
-
-CNN_METHODS = ("rap", "search")  # the methods that need a model
 
 
 class InfeasiblePlan(RapError):
@@ -51,7 +53,7 @@ def default_model_path() -> Path:
 def resolve_model(model: Path | None, method: str, echo) -> tuple[str | None, str]:
     """(checkpoint path or None, method to use). Without ``--model`` the shipped default model is
     used; when it is absent, say so and fall back to the simulator-only method."""
-    if method not in CNN_METHODS:
+    if not needs_model(method):
         return None, method
     if model is not None:
         if not Path(model).is_file():
@@ -64,76 +66,6 @@ def resolve_model(model: Path | None, method: str, echo) -> tuple[str | None, st
          f"project trains it with `rap-farm train DATASET --out {default}`). Planning with "
          f"--method sim (simulator only) instead; pass --model PATH to use RAP's CNN.")
     return None, "sim"
-
-
-def write_plan_json(result, path: Path) -> Path:
-    """Write ``result.to_json()`` (the one serialiser of a plan, also the planning service's answer)
-    atomically: temporary file + rename."""
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=path.parent)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(result.to_json(), fh, indent=2)
-            fh.write("\n")
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise InputError(f"--out {path}: cannot write ({exc.strerror or exc})") from None
-    return path
-
-
-def print_result(console, result, *, wall_s: float | None = None, title: str | None = None,
-                 ray: bool = False) -> None:
-    """The sequence as a rich table, R and timings."""
-    from rich.table import Table
-
-    from rap.plan.result import PlanStatus
-
-    if result.status is not PlanStatus.FOUND:
-        console.print(f"[bold red]{result.status.value}[/]: {result.message}")
-        return
-    table = Table(title=title or f"{result.assembly}: {result.method} plan "
-                                 f"({len(result.steps)} steps, assembly order)")
-    for col, kw in (("step", {"justify": "right"}), ("moving", {"overflow": "fold"}), ("fixed", {"overflow": "fold"}),
-                    ("direction", {"no_wrap": True}), ("score", {"justify": "right"}), ("chosen by", {}),
-                    ("P(high)", {"justify": "right"})):
-        table.add_column(col, **kw)
-    for i, s in enumerate(result.steps, 1):
-        bad = s.score is not None and s.score < 0.95
-        score = "?" if s.score is None else f"{s.score:.3f}"
-        table.add_row(str(i), ",".join(s.moving), ",".join(s.fixed),
-                      f"({s.direction[0] + 0.0:+.3f},{s.direction[1] + 0.0:+.3f})",
-                      f"[red]{score}[/]" if bad else score, s.source,
-                      "" if s.confidence is None else f"{s.confidence:.3f}")
-    console.print(table)
-    st = result.stats
-    line = f"robustness R = {result.robustness:.4f} (product of the simulator's step scores)"
-    if result.method == "random" and "mean_robustness" in st:
-        line += (f"; mean over {st['samples']} random sequences = {st['mean_robustness']:.4f} "
-                 f"(shown: the sample closest to the mean)")
-    console.print(line)
-    parts = [f"planning {result.seconds:.2f} s", f"evaluation {result.eval_seconds:.2f} s"]
-    if wall_s is not None:
-        parts.append(f"wall {wall_s:.2f} s" + (" (Ray start-up included)" if ray else ""))
-    if st.get("service_seconds") is not None and not ray:
-        parts.append(f"service {st['service_seconds']:.2f} s")
-    console.print("time: " + ", ".join(parts))
-    facts = [f"{st.get('sim_run', 0)} simulations run", f"{st.get('cache_hits', 0)} cached scores used"]
-    if st.get("cnn_batches"):
-        facts.append(f"{st['cnn_ops']} CNN scores in {st['cnn_batches']} batches")
-    if result.method == "rap":
-        facts.append(f"simulator fallbacks: {st.get('fallbacks', 0)} of {st.get('decisions', 0)} "
-                     f"decisions")
-    if result.method == "search":
-        how = (f"exact DP over {st.get('operations', '?')} operations" if st.get("search") == "exact"
-               else f"beam of width {st.get('beam_width')}")
-        facts.append(f"search: {how}, {st.get('predicted_operations', 0)} operations scored by "
-                     f"the model, {st.get('search_simulations', 0)} simulated while planning")
-    if result.method == "optimal" and "subassemblies" in st:
-        facts.append(f"DP over {st['subassemblies']} subassemblies / {st['operations']} operations "
-                     f"vs. {st['exhaustive_sequences']:,} sequences for an exhaustive search "
-                     f"({st['dp_speedup']:.0f}x fewer step evaluations)")
-    console.print("; ".join(facts))
 
 
 def _check_suffix(path: Path | None, option: str, suffixes: tuple[str, ...]) -> None:
@@ -150,13 +82,31 @@ def _local_workers(workers: int | None) -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def _flag(name: str) -> str:
+    """A parameter's flag: ``fallback_k`` -> ``--fallback-k``."""
+    return "--" + name.replace("_", "-")
+
+
+def _method_flag(name: str):
+    """The flag of the planner option ``name``, as its method declares it (``rap.plan.methods``):
+    range, help, and its default in words (the flag's own default is None: not given)."""
+    method, opt = option_named(name)
+    return typer.Option(None, _flag(name), min=opt.low, max=opt.high,
+                        help=opt.help_text(method, _flag))
+
+
+def _method_help() -> str:
+    """``--method``'s help: the methods, the default first, and the summaries they declare."""
+    names = [DEFAULT_METHOD] + [m for m in METHODS if m != DEFAULT_METHOD]
+    notes = [f"{m}{', the default' if m == DEFAULT_METHOD else ''}: {METHODS[m].summary}"
+             for m in names if METHODS[m].summary]
+    return f"{' | '.join(names)} ({'; '.join(notes)})."
+
+
 def plan_command(
     assembly: Path = typer.Argument(..., help="Assembly JSON file."),
     model: Path = typer.Option(None, "--model", help="CNN checkpoint [default: the shipped model]."),
-    method: str = typer.Option("search", "--method", help="search | rap | sim | optimal | random "
-                               "(search, the default: the best product of the model's scores "
-                               "over every sequence, dynamic programming or a beam; rap: the "
-                               "paper's greedy planner)."),
+    method: str = typer.Option(DEFAULT_METHOD, "--method", help=_method_help()),
     out: Path = typer.Option(None, "--out", "-o", help="Write the plan as JSON here."),
     picture: Path = typer.Option(None, "--picture", help="Storyboard of the plan (.png or .svg)."),
     address: str = typer.Option(None, "--address", help="Plan on this Ray cluster (HOST:PORT or "
@@ -174,126 +124,138 @@ def plan_command(
     cache: Path = typer.Option(None, "--cache", help="Score cache file [default: "
                                "~/.cache/rap-farm/scores.json or $RAP_CACHE]."),
     no_cache: bool = typer.Option(False, "--no-cache", help="Neither read nor write a cache file."),
-    samples: int = typer.Option(50, "--samples", min=1, help="Random sequences (method random)."),
-    fallback_k: int = typer.Option(None, "--fallback-k", min=1, help="Method rap: when no "
-                                   "candidate is predicted high, simulate at most the K most "
-                                   "likely [default: every candidate, until one is good enough]."),
-    high_probability: float = typer.Option(None, "--high-probability", help="Method rap: a "
-                                           "candidate is taken without simulation at P(high) >= "
-                                           "this [default: 0.9; the paper: 0.5]."),
-    fallback_optimism: float = typer.Option(None, "--fallback-optimism", min=0.0, max=1.0,
-                                            help="Method rap: the fallback simulates candidates "
-                                            "best first until the best simulated score exceeds "
-                                            "the next one's p + U (1 - p), p its expected score "
-                                            "(1: all at once, the paper's rule with "
-                                            "--high-probability 0.5) [default: 0.4]."),
-    beam_width: int = typer.Option(None, "--beam-width", min=1, help="Method search: beam width "
-                                   "beyond the exact search's budget [default: 8]."),
-    simulations: int = typer.Option(None, "--simulations", min=0, help="Method search: "
-                                    "simulations to spend while planning [default: 0]."),
-    trust: float = typer.Option(None, "--trust", min=0.0, max=1.0, help="Method search: "
-                                "operations predicted at this score or more are not simulated "
-                                "while planning [default: none trusted]."),
-    optimism: float = typer.Option(None, "--optimism", min=0.0, max=1.0, help="Method search "
-                                   "with --simulations: an operation not simulated counts as "
-                                   "p + OPTIMISM (1 - p) while choosing, so alternatives the model "
-                                   "may underrate get simulated (0: the model as is; 1: the "
-                                   "optimum, simulations permitting) [default: 0]."),
+    # the methods' options: declared, with their ranges and help, in rap.plan.methods
+    samples: int = _method_flag("samples"),
+    fallback_k: int = _method_flag("fallback_k"),
+    high_probability: float = _method_flag("high_probability"),
+    fallback_optimism: float = _method_flag("fallback_optimism"),
+    beam_width: int = _method_flag("beam_width"),
+    simulations: int = _method_flag("simulations"),
+    trust: float = _method_flag("trust"),
+    optimism: float = _method_flag("optimism"),
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
                                 "actors with --address [default: all CPUs]."),
 ):
     """Plan a robust assembly sequence and print it (step, parts, direction, score, source)."""
     from rap.commands._console import console as make_console
-
     from rap.io import load_assembly
-    from rap.plan.result import PlanStatus
     from rap.seeds import DEFAULT_ROOT_SEED
 
-    console = make_console()
-    err = make_console(stderr=True)
-    if method not in METHODS:
-        raise InputError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
-    if space not in ("online", "all"):
-        raise InputError(f"--space {space!r}: choose online or all")
-    if trust is not None and not 0.0 < trust <= 1.0:
-        raise InputError(f"--trust {trust}: choose a score in (0, 1]")
-    if high_probability is not None and not 0.0 < high_probability <= 1.0:
-        raise InputError(f"--high-probability {high_probability}: choose a probability in (0, 1]")
-    if (trust is not None or optimism) and not simulations:
+    console, err = make_console(), make_console(stderr=True)
+    options = dict(samples=samples, fallback_k=fallback_k, high_probability=high_probability,
+                   fallback_optimism=fallback_optimism, beam_width=beam_width,
+                   simulations=simulations, trust=trust, optimism=optimism)  # None: not given
+    _check_request(method, space, options, out, picture, err)
+    settings = dict(address=address, no_ray=no_ray, model=model, trials=trials, space=space,
+                    cache=cache, no_cache=no_cache, workers=workers)
+    if no_ray and address:
+        raise InputError("--no-ray and --address exclude each other")
+    if server is not None:
+        _check_server_settings(settings, options)
+    asm = load_assembly(assembly)
+    t0 = time.perf_counter()
+    if server is not None:
+        result, on_ray = _plan_by_service(assembly, asm, method, seed, options, server, token,
+                                          console), False
+        settings["cache"] = None
+    else:
+        root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
+        result, on_ray = _plan_with_workers(asm, method, root_seed, options, settings, console,
+                                            err)
+    _show(console, err, asm, result, time.perf_counter() - t0, out=out, picture=picture,
+          server=server, on_ray=on_ray, cache_path=settings["cache"])
+
+
+def _check_request(method: str, space: str, options: dict, out, picture, err) -> None:
+    """Step 1: the method, the operation space and every given planner option (checked by their
+    declarations; a library's ``ParameterError`` becomes one line naming the flag), the output
+    files' suffixes."""
+    from rap.plan.problem import check_space
+
+    try:
+        method_options(method)
+        check_space(space)
+        check_options(**options)
+    except ParameterError as exc:
+        raise InputError(exc.for_name(_flag(exc.parameter))) from None
+    if (options["trust"] is not None or options["optimism"]) and not options["simulations"]:
         err.print("[yellow]warning:[/] --trust and --optimism choose what to simulate: without "
                   "--simulations N they change nothing")
     _check_suffix(out, "--out", (".json",))
     _check_suffix(picture, "--picture", (".png", ".svg"))
-    if no_ray and address:
-        raise InputError("--no-ray and --address exclude each other")
-    if server is not None:
-        given = [name for name, v, default in (
-            ("--address", address, None), ("--no-ray", no_ray, False), ("--model", model, None),
-            ("--trials", trials, 100), ("--space", space, "online"), ("--cache", cache, None),
-            ("--no-cache", no_cache, False), ("--samples", samples, 50),
-            ("--workers", workers, None))
-            if v != default]
-        if given:
-            raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
-                             f"its own settings: model, trials, cache, workers)")
-        server_options = {  # the method's options travel with the request
-            "rap": {"fallback_k": fallback_k, "high_probability": high_probability,
-                    "fallback_optimism": fallback_optimism},
-            "search": {"beam_width": beam_width, "simulations": simulations, "trust": trust,
-                       "optimism": optimism}}.get(method, {})
-    asm = load_assembly(assembly)
-    root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
 
-    t0 = time.perf_counter()
-    on_ray = False
-    if server is not None:
-        from rap.client import plan_body, post_plan
-        from rap.plan.result import PlanResult
 
-        body = plan_body(assembly, method, seed, server_options)
-        with console.status(f"planning {asm.name} with {method} at {server} ..."):
-            doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
-        try:
-            result = PlanResult.from_json(doc, **details)
-        except ValueError as exc:
-            from rap.client import ServiceError
+def _check_server_settings(settings: dict, options: dict) -> None:
+    """With ``--server``: refuse this machine's settings (the service plans with its own) and
+    the planner options the service does not take (``--samples``)."""
+    defaults = dict(address=None, no_ray=False, model=None, trials=100, space="online",
+                    cache=None, no_cache=False)
+    given = [(name, value, defaults[name]) for name, value in settings.items()
+             if name != "workers"]
+    given += [(o.name, options[o.name], o.default) for m in METHODS.values()
+              for o in m.declared() if o.cli and not o.service]
+    given += [("workers", settings["workers"], None)]
+    given = [_flag(name) for name, value, default in given
+             if value is not None and value != default]
+    if given:
+        raise InputError(f"--server and {given[0]} exclude each other (the service plans with "
+                         f"its own settings: model, trials, cache, workers)")
 
-            raise ServiceError(f"--server {server}: {exc}") from None
-        cache_path = None
-    else:
-        from rap.plan.cache import default_cache_path
-        from rap.sim.params import SimParams
 
-        params = SimParams(trials=trials)
-        model_path, method = resolve_model(model, method, lambda s: err.print(s))
-        cache_path = None if no_cache else (cache or default_cache_path())
-        address = None if no_ray else (address or os.environ.get("RAY_ADDRESS") or None)
-        if address is None:
-            result = _plan_here(asm, method, params, root_seed, space, samples, model_path,
-                                cache_path, _local_workers(workers), err,
-                                dict(fallback_k=fallback_k, beam_width=beam_width,
-                                     simulations=simulations, trust=trust,
-                                     high_probability=high_probability, optimism=optimism,
-                                     fallback_optimism=fallback_optimism))
-        else:
-            import rap.farm.service as service
+def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, server: str, token,
+                     console):
+    """Step 2, with ``--server``: the service plans; the method's options travel with the
+    request."""
+    from rap.client import ServiceError, plan_body, post_plan
+    from rap.plan.result import PlanResult
 
-            if model_path is not None:
-                _familiarity(asm, _load_cnn(model_path), space, err)
-            on_ray = True
-            req = service.PlanRequest(asm, method, params, root_seed, space, samples,
-                                      planner_options=dict(fallback_k=fallback_k,
-                                                           beam_width=beam_width,
-                                                           simulations=simulations,
-                                                           trust=trust,
-                                                           high_probability=high_probability,
-                                                           optimism=optimism,
-                                                           fallback_optimism=fallback_optimism))
-            with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
-                result = service.run_plan(req, model_path=model_path, address=address,
-                                          workers=workers,
-                                          cache_path=str(cache_path) if cache_path else None)
-    wall = time.perf_counter() - t0
+    sent = {o.name: options[o.name] for o in METHODS[method].declared() if o.service and o.cli}
+    body = plan_body(assembly, method, seed, sent)
+    with console.status(f"planning {asm.name} with {method} at {server} ..."):
+        doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
+    try:
+        return PlanResult.from_json(doc, **details)
+    except ValueError as exc:
+        raise ServiceError(f"--server {server}: {exc}") from None
+
+
+def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings: dict, console,
+                       err):
+    """Step 2 otherwise: plan here (``_plan_here``) or on a Ray cluster (``--address``,
+    ``$RAY_ADDRESS``), with the model (the shipped one by default) and the score cache.
+    (result, whether on Ray); ``settings["cache"]`` becomes the cache file used, or None."""
+    from rap.plan.cache import default_cache_path
+    from rap.sim.params import SimParams
+
+    params = SimParams(trials=settings["trials"])
+    model_path, method = resolve_model(settings["model"], method, lambda s: err.print(s))
+    cache_path = None if settings["no_cache"] else (settings["cache"] or default_cache_path())
+    settings["cache"] = cache_path
+    address = settings["address"]
+    address = None if settings["no_ray"] else (address or os.environ.get("RAY_ADDRESS") or None)
+    space, workers = settings["space"], settings["workers"]
+    if address is None:
+        return _plan_here(asm, method, params, root_seed, space, model_path, cache_path,
+                          _local_workers(workers), err, options), False
+    import rap.farm.service as service
+
+    if model_path is not None:
+        _familiarity(asm, _load_cnn(model_path), space, err)
+    planner_options = {k: v for k, v in options.items() if k != "samples"}
+    req = service.PlanRequest(asm, method, params, root_seed, space,
+                              options["samples"] or RandomOptions().samples,
+                              planner_options=planner_options)
+    with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
+        result = service.run_plan(req, model_path=model_path, address=address, workers=workers,
+                                  cache_path=str(cache_path) if cache_path else None)
+    return result, True
+
+
+def _show(console, err, asm, result, wall: float, *, out, picture, server, on_ray,
+          cache_path) -> None:
+    """Step 3: the plan's table, ``--out`` and ``--picture``; ``InfeasiblePlan`` (exit 1)
+    without a plan (the ``--out`` document still written for an interlocked assembly)."""
+    from rap.plan.result import PlanStatus
 
     if result.status is PlanStatus.INFEASIBLE:
         if out is not None:
@@ -323,9 +285,10 @@ def _load_cnn(model_path: str):
     return PredictorCnn.load(model_path, engine="auto")
 
 
-def _plan_here(asm, method, params, root_seed, space, samples, model_path, cache_path, workers,
-               err, options: dict | None = None):
-    """Plan in this process; simulation batches over ``workers`` forked processes."""
+def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, workers, err,
+               options: dict | None = None):
+    """Plan in this process; simulation batches over ``workers`` forked processes; ``options``:
+    ``make_planner``'s (None: the default)."""
     from rap.plan.cache import ScoreCache
     from rap.plan.methods import make_planner
     from rap.plan.problem import PlanningProblem
@@ -343,7 +306,7 @@ def _plan_here(asm, method, params, root_seed, space, samples, model_path, cache
             if sim.prestarted:
                 cnn.cores_busy = sim.loading
         cache_obj = ScoreCache(cache_path)
-        planner = make_planner(method, samples=samples, **(options or {}))
+        planner = make_planner(method, **(options or {}))
         result = planner.solve(problem, Scorer(sim, cnn, cache_obj))
     finally:
         sim.close()
