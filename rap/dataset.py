@@ -103,7 +103,7 @@ LOCK_FILE = "_rapfarm.lock"  # held by the one writer (lock_dataset)
 QUARANTINE_DIR = "_quarantine"  # corrupt shards moved aside (quarantine)
 _TMP_PREFIX = ".tmp-"
 _SHARD_GLOB = "*/part-*.parquet"
-COMPRESSION_LEVEL = 12  # zstd: ~25% smaller shards than the default level at ~0.1 ms per row
+COMPRESSION_LEVEL = 3  # zstd: ~16 us a row with images; level 12 writes ~16% smaller shards at ~10x the CPU
 
 SCHEMA = pa.schema(
     [

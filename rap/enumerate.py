@@ -40,6 +40,7 @@ from rap.operation import Operation, subset_key
 from rap.seeds import derive_rng, derive_seed
 
 __all__ = [
+    "defer_selection",
     "MODES",
     "LABEL_BUDGET",
     "TooManyOperations",
@@ -193,11 +194,13 @@ class Shortfall:
 class Selection:
     """The operations of one assembly that a label run takes, as a re-iterable lazy stream.
 
-    ``how`` is ``"all"`` (every operation; ``size`` is their number) or ``"sampled"`` (the first
-    ``limit`` of the seeded stream; ``size`` is None when the space was not counted to the end).
-    ``total`` is what the run expects to label (the stream may end early: ``shortfall``).
-    ``mode``, ``directions_per_range`` and ``patience`` are the stream's (to count the space and
-    say why it ended).
+    ``how`` is ``"all"`` (every operation; ``size`` is their number), ``"sampled"`` (the first
+    ``limit`` of the seeded stream; ``size`` is None when the space was not counted to the end) or
+    ``"capped"`` (not counted yet, ``defer_selection``: ``total`` is the limit, an upper bound, and
+    ``resolved()`` counts and gives the "all" or "sampled" selection). ``total`` is what the run
+    expects to label (the stream may end early: ``shortfall``). ``mode``,
+    ``directions_per_range`` and ``patience`` are the stream's (to count the space and say why it
+    ended).
     """
 
     assembly: Assembly
@@ -208,6 +211,12 @@ class Selection:
     mode: str = "all"
     directions_per_range: int = 1
     patience: int = _PATIENCE
+    counted_by: Callable[[], "Selection"] | None = None  # "capped": counts and decides
+
+    def resolved(self) -> "Selection":
+        """This selection with its space counted: itself unless ``"capped"``, whose count costs
+        O(limit) partitions of integer work (and building the assembly's NDBG)."""
+        return self if self.counted_by is None else self.counted_by()
 
     def __iter__(self) -> Iterator[Operation]:
         n = 0
@@ -220,6 +229,8 @@ class Selection:
     def describe(self) -> str:
         if self.how == "all":
             return f"all {self.total}"
+        if self.how == "capped":
+            return f"at most {self.total} (not counted yet)"
         space = f"of {self.size}" if self.size is not None else "of a larger space"
         return f"a seeded sample of {self.total} {space}"
 
@@ -230,6 +241,8 @@ class Selection:
         1 s for 20,000 operations) to say how much of it there is."""
         if selected >= self.total:
             return None
+        if self.how == "capped":
+            return self.resolved().shortfall(selected, budget)
         if self.how != "sampled":
             return Shortfall(selected, self.total, self.size,
                              "the space holds fewer distinct operations than were counted")
@@ -273,3 +286,19 @@ def select_operations(assembly: Assembly, limit: int | None, root_seed: int, mod
                      lambda: iter_sampled_operations(assembly, mode, directions_per_range,
                                                      root_seed),
                      mode, directions_per_range)
+
+
+def defer_selection(assembly: Assembly, limit: int, root_seed: int, mode: str = "all",
+                    directions_per_range: int = 1, budget: int = LABEL_BUDGET) -> Selection:
+    """``select_operations(assembly, limit, ...)`` without counting now: a ``"capped"`` selection
+    of at most ``limit`` operations, counted where it is first iterated or ``resolved()`` (a
+    selection task on a cluster, not the driver). Costs nothing until then."""
+    _check_mode(mode)
+    if limit < 1 or directions_per_range < 1:
+        raise ValueError("limit and directions_per_range must be >= 1")
+
+    def count() -> Selection:
+        return select_operations(assembly, limit, root_seed, mode, directions_per_range, budget)
+
+    return Selection(assembly, "capped", limit, None, lambda: iter(count()), mode,
+                     directions_per_range, counted_by=count)

@@ -90,7 +90,7 @@ def label(
         progress=not quiet and sys.stderr.isatty(),
         command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]))
     plan = driver.prepare(cfg)
-    typer.echo(f"{plan.total} operations selected in {len(plan.assemblies)} assemblies "
+    typer.echo(f"{plan.total_text} operations selected in {len(plan.assemblies)} assemblies "
                f"({plan.existing_rows} rows already in {out}); labelling what is missing", err=True)
     summary = driver.run_label(cfg, plan)
     typer.echo(driver.format_summary(summary))

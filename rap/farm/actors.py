@@ -18,20 +18,22 @@ until its simulator is loaded.
 from __future__ import annotations
 
 import os
+import pickle
 import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any
 
+import pyarrow as pa
 import ray
 
 from rap.operation import Operation
 
-from rap.farm.rows import Backend, label_rows, resolve
+from rap.farm.rows import Backend, label_rows, resolve, rows_table
 from rap.farm.runtime import node_label
 
-__all__ = ["Backend", "SimTask", "BatchResult", "SimWorker", "resolve"]
+__all__ = ["Backend", "SimTask", "BatchResult", "SimWorker", "resolve", "pack", "unpack"]
 
 _ASSEMBLY_CACHE = 32  # assemblies kept per worker (LRU, by geometry hash)
 
@@ -45,7 +47,7 @@ class SimTask:
     assembly_name: str
     geometry_hash: str
     assembly_ref: list
-    operations: tuple[Operation, ...]
+    operations: tuple[Operation | bytes, ...]  # bytes: ``pack(operation)``
     keys: tuple[str, ...]
     seeds: tuple[int, ...]
     params: Any  # rap.sim.params.SimParams
@@ -53,13 +55,27 @@ class SimTask:
     images: bool = True
 
 
+def pack(operation: Operation) -> bytes:
+    """An operation as it may travel in a ``SimTask``: its pickle, which the driver forwards as
+    opaque bytes (a chunk of packed operations crosses the driver at memcpy speed, where
+    Operations with their Fractions cost it ~15 us each to unpickle and pickle again)."""
+    return pickle.dumps(operation, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def unpack(operation: Operation | bytes) -> Operation:
+    """The operation of a ``SimTask`` entry (``pack``'s bytes or the Operation itself)."""
+    return pickle.loads(operation) if isinstance(operation, bytes) else operation
+
+
 @dataclass
 class BatchResult:
-    """What a task returns: rows (dicts in ``rap.dataset.SCHEMA``; ``image`` is None when images
-    were not asked for) in the task's order, and where the time went."""
+    """What a task returns: its rows as one table in ``rap.farm.rows.WIRE_SCHEMA`` (``image`` null
+    when images were not asked for), in the task's order, and where the time went. The table is
+    built on the worker, so the driver never handles a row as a Python object (``rows`` does, for
+    callers that want dicts)."""
 
     task_id: int
-    rows: list[dict]
+    table: pa.Table
     node: str
     pid: int
     assembly: str = ""  # the task's assembly name
@@ -69,6 +85,15 @@ class BatchResult:
     task_s: float = 0.0  # the whole actor method, fetch of the assembly included
     attempts: int = 1  # set by the pool
     extra: dict = field(default_factory=dict)
+
+    @property
+    def num_rows(self) -> int:
+        return self.table.num_rows
+
+    @property
+    def rows(self) -> list[dict]:
+        """The rows as dicts (``WIRE_SCHEMA``'s columns); O(rows) each call."""
+        return self.table.to_pylist()
 
 
 class SimWorker:
@@ -126,8 +151,9 @@ class SimWorker:
         simulate, render = self._functions(task.images)
         assembly = self._assembly(task)
         rows, sim_s, render_s = label_rows(
-            assembly, task.operations, task.keys, task.seeds, task.params, task.params_json,
+            assembly, [unpack(op) for op in task.operations], task.keys, task.seeds, task.params, task.params_json,
             simulate=simulate, render=render if task.images else None, node=self._node,
             assembly_name=task.assembly_name, geometry_hash=task.geometry_hash)
-        return BatchResult(task_id=task.task_id, rows=rows, node=self._node, pid=self._pid,
+        return BatchResult(task_id=task.task_id, table=rows_table(rows), node=self._node,
+                           pid=self._pid,
                            assembly=task.assembly_name, sim_s=sim_s, render_s=render_s, task_s=time.perf_counter() - t0)

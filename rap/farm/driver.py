@@ -46,14 +46,20 @@ import time
 from pathlib import Path
 from typing import Callable, Iterator
 
-from rap.dataset import (SCHEMA_VERSION, DatasetMeta, clean_partial_files, rows_to_table, write_geometry,
-                         write_meta, write_shard)
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+
+from rap.dataset import (SCHEMA_VERSION, DatasetMeta, clean_partial_files, write_geometry, write_meta,
+                         write_shard)
 from rap.errors import InputError
 
 from rap.farm.pool import IDLE_TIMEOUT_S, Job, SimPool
+from rap.farm.rows import dataset_table
 from rap.farm.runtime import connect
 from rap.farm.prefetch import parallel_jobs
-from rap.farm.selection import HIST_BINS, LabelConfig, LabelPlan, LabelSummary, iter_jobs, prepare
+from rap.farm.selection import (HIST_BINS, LabelConfig, LabelPlan, LabelSummary, iter_jobs, prepare,
+                               selects_in_tasks)
 
 __all__ = ["PRESETS", "LabelConfig", "LabelPlan", "LabelSummary", "prepare", "run_label",
            "format_summary"]
@@ -162,23 +168,21 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
         return summary
 
     pending: set[str] = set()  # keys submitted and not yet written (in flight)
-    buffer: list[dict] = []
+    buffer: list[pa.Table] = []  # received batches (wire tables), not yet committed
+    buffered = 0
     last_flush = time.monotonic()
     first_result: float | None = None
     t0 = time.perf_counter()
 
     def flush() -> None:
-        nonlocal last_flush
+        nonlocal last_flush, buffered
         if buffer:
             with _Uninterruptible():
-                summary.shards += len(write_shard(out, rows_to_table(buffer)))
-                summary.labelled += len(buffer)
-                for r in buffer:
-                    summary.nodes[r["node"]] = summary.nodes.get(r["node"], 0) + 1
-                    summary.per_assembly[r["assembly"]] = summary.per_assembly.get(r["assembly"], 0) + 1
-                    b = min(HIST_BINS - 1, max(0, int(r["score"] * HIST_BINS)))
-                    summary.hist[b] += 1
+                table = dataset_table(pa.concat_tables(buffer))
+                summary.shards += len(write_shard(out, table))
+                count_rows(summary, table)
                 buffer.clear()
+                buffered = 0
             if summary.first_shard_s is None:
                 summary.first_shard_s = time.perf_counter() - t_start
         last_flush = time.monotonic()
@@ -203,27 +207,26 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
             with progress:
                 bar = progress.add_task("label", total=plan.total)
                 skipped = lambda k: progress.advance(bar, k)  # noqa: E731
-                if len(plan.assemblies) > 1 and cfg.selection_tasks != 0:  # select in parallel
+                resize = lambda: progress.update(bar, total=summary.total)  # noqa: E731
+                if selects_in_tasks(cfg, len(plan.assemblies)):
                     jobs = tracked(parallel_jobs(plan, summary, skipped,
-                                                 tasks=cfg.selection_tasks or rt.cpus))
+                                                 tasks=cfg.selection_tasks or rt.cpus,
+                                                 recounted=resize))
                 else:
-                    jobs = tracked(iter_jobs(plan, summary, skipped))
+                    jobs = tracked(iter_jobs(plan, summary, skipped, resize))
                 for res in pool.stream(jobs, plan.params, images=True, errors="collect"):
                     if res.error is not None:
                         summary.failed.setdefault(res.assembly, res.error)
-                    fresh = 0
-                    for row in res.rows:
-                        if row["key"] in pending:
-                            pending.discard(row["key"])
-                            buffer.append(row)
-                            fresh += 1
-                        else:
-                            summary.duplicates += 1
-                    progress.advance(bar, fresh)
+                    table = fresh_rows(res.table, pending)
+                    summary.duplicates += res.num_rows - table.num_rows
+                    if table.num_rows:
+                        buffer.append(table)
+                        buffered += table.num_rows
+                    progress.advance(bar, table.num_rows)
                     now = time.monotonic()
-                    if first_result is None and res.rows:
+                    if first_result is None and res.num_rows:
                         first_result = now
-                    if (len(buffer) >= cfg.flush_rows or now - last_flush >= cfg.flush_seconds
+                    if (buffered >= cfg.flush_rows or now - last_flush >= cfg.flush_seconds
                             or (summary.shards == 0 and first_result is not None
                                 and now - first_result >= cfg.first_flush_seconds)):
                         flush()
@@ -244,6 +247,28 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
                 summary.peak_rss_mib = _peak_rss_mib()
                 pool.shutdown()
     return summary
+
+
+def fresh_rows(table: pa.Table, pending: set[str]) -> pa.Table:
+    """The rows of ``table`` whose key is in ``pending`` (in flight, not yet received), taking each
+    key out of it: a batch that arrives twice (resubmitted after a lost node) adds nothing.
+    O(rows)."""
+    keep = []
+    for k in table.column("key").to_pylist():
+        keep.append(k in pending)
+        pending.discard(k)
+    return table if all(keep) else table.filter(pa.array(keep, pa.bool_()))
+
+
+def count_rows(summary: LabelSummary, table: pa.Table) -> None:
+    """Add committed rows to the summary: rows per node and per assembly, the score histogram."""
+    summary.labelled += table.num_rows
+    for column, counts in (("node", summary.nodes), ("assembly", summary.per_assembly)):
+        for vc in pc.value_counts(table.column(column)).to_pylist():
+            counts[vc["values"]] = counts.get(vc["values"], 0) + vc["counts"]
+    bins = np.clip((table.column("score").to_numpy() * HIST_BINS).astype(np.int64), 0, HIST_BINS - 1)
+    for b, n in enumerate(np.bincount(bins, minlength=HIST_BINS)):
+        summary.hist[b] += int(n)
 
 
 def format_summary(s: LabelSummary) -> str:

@@ -6,7 +6,7 @@ Usage (Ray already initialised, e.g. inside ``rap.farm.runtime.connect()``)::
     pool.ready(timeout_s=120, at_least=1)              # wait for one actor, not for all of them
     results = pool.score(assembly, ops, params, root_seed)       # list[Scored], input order
     for batch in pool.stream(pool.jobs(assembly, ops, params, root_seed)):   # completion order
-        ...                                            # batch.rows: dataset rows
+        ...                                            # batch.table: the rows
     pool.shutdown()
 
 Design (Ray's core patterns):
@@ -79,7 +79,7 @@ from rap.errors import WorkFailedError
 from rap.operation import Operation
 
 from rap.farm.actors import Backend, BatchResult, SimTask, SimWorker
-from rap.farm.rows import params_json
+from rap.farm.rows import params_json, rows_table
 from rap.farm.selection import Job
 from rap.farm.runtime import cluster_cpus
 
@@ -611,15 +611,15 @@ class SimPool:
 
     @staticmethod
     def _failed(task: SimTask, msg: str) -> BatchResult:
-        return BatchResult(task_id=task.task_id, rows=[], node="", pid=0,
+        return BatchResult(task_id=task.task_id, table=rows_table([]), node="", pid=0,
                            assembly=task.assembly_name, error=msg)
 
     def _account(self, res: BatchResult) -> None:
-        n = max(1, len(res.rows))
+        n = max(1, res.num_rows)
         per = res.task_s / n
         with self._lock:
             s = self.stats
-            s["ops"] += len(res.rows)
+            s["ops"] += res.num_rows
             s["sim_s"] += res.sim_s
             s["render_s"] += res.render_s
             s["task_s"] += res.task_s

@@ -14,12 +14,20 @@ from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 import numpy as np
+import pyarrow as pa
 
 from rap import __version__
-from rap.dataset import IMAGE_SIZE
+from rap.dataset import IMAGE_SIZE, SCHEMA
 from rap.operation import Operation, subset_key
 
-__all__ = ["Backend", "resolve", "params_json", "label_rows"]
+__all__ = ["Backend", "resolve", "params_json", "label_rows", "WIRE_SCHEMA", "rows_table",
+           "dataset_table"]
+
+# A batch's rows as they travel from a worker: ``SCHEMA`` with the image nullable (None when
+# images were not asked for) and each operation's simulator seconds.
+WIRE_SCHEMA = pa.schema([f.with_nullable(True) if f.name == "image" else f for f in SCHEMA]
+                        + [pa.field("seconds", pa.float64(), nullable=False)],
+                        metadata=SCHEMA.metadata)
 
 
 @dataclass(frozen=True)
@@ -95,3 +103,15 @@ def label_rows(assembly: Any, operations: Sequence[Operation], keys: Sequence[st
             "seconds": float(getattr(res, "seconds", t1 - t)),
         })
     return rows, sim_s, render_s
+
+
+def rows_table(rows: Sequence[dict]) -> pa.Table:
+    """``label_rows``' rows as one table in ``WIRE_SCHEMA``: built where the rows are made (the
+    worker), so that the driver handles a batch as a few columns, not as dicts. O(rows)."""
+    cols = {f.name: pa.array([r[f.name] for r in rows], type=f.type) for f in WIRE_SCHEMA}
+    return pa.Table.from_pydict(cols, schema=WIRE_SCHEMA)
+
+
+def dataset_table(wire: pa.Table) -> pa.Table:
+    """The dataset's columns (``SCHEMA``) of a wire table whose rows all have images; zero-copy."""
+    return pa.Table.from_arrays([wire.column(f.name) for f in SCHEMA], schema=SCHEMA)

@@ -29,7 +29,8 @@ from typing import Any, Callable, Iterator, Sequence
 from rap.assembly import Assembly
 from rap.dataset import (METADATA_FILE, SCHEMA_VERSION, DatasetLock, Duplicates, duplicate_keys,
                          existing_keys, lock_dataset, read_meta, read_table)
-from rap.enumerate import MODES, Selection, Shortfall, label_key, label_seed, select_operations
+from rap.enumerate import (MODES, Selection, Shortfall, defer_selection, label_key, label_seed,
+                           select_operations)
 from rap.errors import InputError, RapError
 from rap.io import load_assembly
 from rap.operation import Operation
@@ -44,10 +45,11 @@ HIST_BINS = 10
 
 @dataclass(frozen=True)
 class Job:
-    """One operation to label: its assembly, content key (dataset identity) and simulator seed."""
+    """One operation to label: its assembly, content key (dataset identity) and simulator seed.
+    ``operation`` may be packed (``rap.farm.actors.pack``) when it only passes through."""
 
     assembly: Assembly
-    operation: Operation
+    operation: Operation | bytes
     key: str
     seed: int
 
@@ -106,7 +108,14 @@ class LabelPlan:
 
     @property
     def total(self) -> int:
+        """Operations the selections take (an upper bound while one is not counted yet)."""
         return sum(s.total for s in self.selections.values())
+
+    @property
+    def total_text(self) -> str:
+        """``total`` as a user reads it: "N", or "up to N" while a selection is not counted."""
+        capped = any(s.how == "capped" for s in self.selections.values())
+        return f"up to {self.total}" if capped else str(self.total)
 
     @property
     def existing_rows(self) -> int:
@@ -260,6 +269,11 @@ def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) ->
 
         selections: dict[str, Selection] = {}
         for a in assemblies:
+            if cfg.max_ops_per_assembly is not None and selects_in_tasks(cfg, len(assemblies)):
+                # counted by the assembly's selection task (rap.farm.prefetch), not here
+                selections[a.name] = defer_selection(a, cfg.max_ops_per_assembly, cfg.seed,
+                                                     cfg.mode, cfg.directions_per_range)
+                continue
             status(f"counting {a.name}")
             # TooManyOperations (an InputError): uncapped and beyond the budget, refused at once
             selections[a.name] = select_operations(a, cfg.max_ops_per_assembly, cfg.seed,
@@ -273,10 +287,18 @@ def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) ->
         raise
 
 
+def selects_in_tasks(cfg: LabelConfig, assemblies: int) -> bool:
+    """Whether a run selects each assembly's operations in a Ray task of its own
+    (``rap.farm.prefetch``) rather than in the driver's thread: with several assemblies, unless
+    ``selection_tasks`` is 0."""
+    return assemblies > 1 and cfg.selection_tasks != 0
+
+
 @dataclass
 class Outcome:
     """What selecting one assembly found besides its jobs (``select_jobs`` fills it in)."""
 
+    total: int | None = None  # what the selection takes, once counted (at most the plan's total)
     selected: int = 0  # operations the selection gave
     existing: int = 0  # of those, already in the dataset
     short: Shortfall | None = None  # the selection ended before its total, and why
@@ -294,8 +316,9 @@ def select_jobs(plan: LabelPlan, assembly: Assembly, outcome: Outcome,
     existing = plan.existing_keys
     gh = assembly.geometry_hash
     seen: set[str] = set()  # this assembly's keys (its selection is distinct by construction)
-    selection = plan.selections[assembly.name]
     try:
+        selection = plan.selections[assembly.name].resolved()  # counts a deferred one
+        outcome.total = selection.total
         for op in selection:
             if stop():
                 return
@@ -321,15 +344,30 @@ def record(summary: LabelSummary, name: str, outcome: Outcome) -> None:
         summary.short[name] = outcome.short
 
 
-def iter_jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], None]) -> Iterator[Job]:
+def recount(summary: LabelSummary, plan: LabelPlan, name: str, outcome: Outcome) -> bool:
+    """Lower ``summary.total`` by what a selection the plan left uncounted turned out not to take;
+    True when it did (call it once per assembly, after its count: ``outcome.total`` set)."""
+    fewer = plan.selections[name].total - (outcome.total or 0)
+    if outcome.total is None or fewer <= 0:
+        return False
+    summary.total -= fewer
+    return True
+
+
+def iter_jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int], None],
+              recounted: Callable[[], None] = lambda: None) -> Iterator[Job]:
     """The jobs of every selection, assembly after assembly, lazily, in this thread; skips what is
     already in the dataset and every assembly in ``summary.failed``. A failing enumeration fails
-    its assembly only."""
+    its assembly only. ``recounted()`` is called when ``summary.total`` falls (``recount``)."""
     for a in plan.assemblies:
         outcome = Outcome()
-        counted = [0]
+        counted = [0, False]
 
         def count_existing() -> None:  # progress and summary as the skipped ones come
+            if not counted[1] and outcome.total is not None:
+                counted[1] = True
+                if recount(summary, plan, a.name, outcome):
+                    recounted()
             if outcome.existing > counted[0]:
                 summary.existing += outcome.existing - counted[0]
                 skipped(outcome.existing - counted[0])
