@@ -45,10 +45,11 @@ def experiment_command(
 ):
     """Compare RAP, sim-only, optimal and random planning on every assembly (paper, section 8)."""
     from rap.io import load_assembly
-    from rap.errors import InputError
+    from rap.errors import InputError, ParameterError
     from rap.model.trainset import dataset_assemblies
-    from rap.plan.experiment import (EXPERIMENT_METHODS, method_planner, run_experiment,
-                                     write_report)
+    from rap.plan.experiment import (EXPERIMENT_METHODS, check_held_out, method_planner,
+                                     run_experiment)
+    from rap.plan.experiment_report import write_report
 
     if not (Path(dataset) / "_rapfarm.json").is_file():
         raise InputError(f"{dataset}: not a rap-farm dataset (no _rapfarm.json)")
@@ -57,7 +58,10 @@ def experiment_command(
         raise InputError(f"--methods: choose from {', '.join(EXPERIMENT_METHODS)}, rap-kK-pP or "
                          f"search-...")
     for m in wanted:
-        method_planner(m)  # InputError for unknown names
+        try:
+            method_planner(m)
+        except ParameterError as exc:  # the library names the parameter: here, the flag
+            raise InputError(exc.for_name("--methods")) from None
     names = dataset_assemblies(dataset)
     if only:
         missing = sorted(set(only) - set(names))
@@ -75,9 +79,11 @@ def experiment_command(
     if model is not None:
         if not Path(model).is_file():
             raise InputError(f"--model {model}: no such checkpoint")
-        from rap.plan.experiment import check_held_out
-
-        check_held_out(model, asms)
+        try:
+            check_held_out(model, asms)
+        except ParameterError as exc:
+            raise InputError(f"{exc.for_name('--model')} (use --models for hold-out "
+                             f"models)") from None
 
     import rap.farm.service as service
     from rap.farm.pool import SimPool

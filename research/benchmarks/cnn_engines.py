@@ -29,14 +29,14 @@ def main() -> None:
 
     from rap.io import load_assembly
     from rap.plan.cache import ScoreCache
-    from rap.plan.experiment import _params_and_seed
+    from rap.plan.experiment import dataset_params
     from rap.plan.problem import PlanningProblem
     from rap.model.inference import PredictorCnn
     from rap.plan.scorers import Scorer
     from rap.plan.search import SearchPlanner
     from research.benchmarks.search import NoSimulator
 
-    params, seed = _params_and_seed(args.dataset)
+    params, seed = dataset_params(args.dataset)
     engines = {"numpy": PredictorCnn.load(args.model, engine="auto"),
                "torch": PredictorCnn.load(args.model, engine="torch")}
     assert getattr(engines["numpy"].predictor, "engine", None) == "numpy", "not a fastcnn model"

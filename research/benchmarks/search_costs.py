@@ -155,7 +155,7 @@ def main() -> None:
     args = ap.parse_args()
 
     from rap.io import load_assembly
-    from rap.plan.experiment import _params_and_seed
+    from rap.plan.experiment import dataset_params
     from rap.plan.problem import PlanningProblem
     from rap.model.inference import PredictorCnn
     from rap.plan.graph import reachable
@@ -163,7 +163,7 @@ def main() -> None:
     folder = ROOT / "assemblies" / "unseen"
     names = args.names or sorted(p.stem for p in folder.glob("*.json"))
     assemblies = {n: load_assembly(folder / f"{n}.json") for n in names}
-    params, seed = _params_and_seed(args.dataset)
+    params, seed = dataset_params(args.dataset)
     if not args.no_profile:
         profile(names, assemblies, params, seed, args.model)
 
