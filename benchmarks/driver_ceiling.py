@@ -4,7 +4,8 @@
 
 ``run_label`` on four assemblies (the 100-part grid, a 30-cell convex tiling, tangram, pentomino
 6x10; ``--max-ops-per-assembly 4000``: about 10,400 operations) with a simulator that returns at
-once (``null_simulate``: no physics, a seeded score) and a blank renderer, once with selection in
+once (``null_simulate``: no physics, a seeded score) and a blank renderer (``--batch-size 9``:
+tasks the size the real simulator's take), once with selection in
 the driver's thread (``selection_tasks=0``) and once in parallel Ray tasks (``rap.farm.prefetch``),
 each ``--repeats`` times. Printed per run: operations, the labelling rate (bound on this machine by
 whatever shares its two cores), the driver process's CPU time per operation (``getrusage``: the
@@ -70,7 +71,8 @@ def cpu_s() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def measure(repeats: int = 2, max_ops: int = 4000, workers: int = 1) -> dict[str, float]:
+def measure(repeats: int = 2, max_ops: int = 4000, workers: int = 1,
+            batch_size: int | None = None) -> dict[str, float]:
     """Time ``run_label`` both ways on the connected Ray (printing a line a run); the best
     ceiling of each way, operations/s."""
     from rap.farm.driver import LabelConfig, prepare, run_label
@@ -88,7 +90,8 @@ def measure(repeats: int = 2, max_ops: int = 4000, workers: int = 1) -> dict[str
                 shutil.rmtree(out, ignore_errors=True)
                 cfg = LabelConfig(assemblies=tuple(files), out=str(out), workers=workers,
                                   trials=5, max_ops_per_assembly=max_ops, backend=backend,
-                                  progress=False, flush_rows=4096, selection_tasks=tasks)
+                                  progress=False, flush_rows=4096, selection_tasks=tasks,
+                                  batch_size=batch_size)
                 c0, t0 = cpu_s(), time.perf_counter()
                 s = run_label(cfg, prepare(cfg))
                 cpu, wall = cpu_s() - c0, time.perf_counter() - t0
@@ -96,7 +99,8 @@ def measure(repeats: int = 2, max_ops: int = 4000, workers: int = 1) -> dict[str
                 best[how] = max(best.get(how, 0.0), ceiling)
                 print(f"selection in the {how:14s}: {s.labelled} operations, {s.rate:6.0f} ops/s "
                       f"labelling ({wall:.1f} s wall), driver CPU {1e6 * cpu / s.labelled:5.0f} "
-                      f"us/op -> {ceiling:6.0f} ops/s with a core to itself", flush=True)
+                      f"us/op -> {ceiling:6.0f} ops/s with a core to itself; peak RSS "
+                      f"{s.peak_rss_mib:.0f} MiB", flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return best
@@ -115,13 +119,16 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--sim-ops-per-core", type=float, default=9.0)
+    ap.add_argument("--batch-size", type=int, default=None,
+                    help="operations a task (default: adaptive, 64 with this simulator; the real "
+                         "simulator's tasks of about 1 s hold about 9)")
     args = ap.parse_args()
     os.environ["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
     import ray
 
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
     try:
-        best = measure(args.repeats, args.max_ops, args.workers)
+        best = measure(args.repeats, args.max_ops, args.workers, args.batch_size)
     finally:
         ray.shutdown()
     print(ceiling_line(best, args.sim_ops_per_core))

@@ -13,7 +13,7 @@
 =====  =====================================================================================
 """
 
-__all__ = ["RapError", "InputError", "ParameterError", "WorkFailedError", "StorageError", "EXIT_OK",
+__all__ = ["RapError", "InputError", "ParameterError", "WorkFailedError", "StorageError", "one_line", "EXIT_OK",
            "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_FAILED", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
 
 EXIT_OK = 0
@@ -58,3 +58,13 @@ class WorkFailedError(RapError):
 class StorageError(WorkFailedError):
     """A file could not be written (disk full, read-only, permissions): one line saying where.
     Exit status 3; what was committed before stays intact and no temporary file is left."""
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception as one line of at most 200 characters: its message's first line (its type's
+    name when it has none; "nested too deeply" for a ``RecursionError``)."""
+    if isinstance(exc, RecursionError):
+        return "nested too deeply"
+    text = str(exc).strip().splitlines()
+    line = text[0] if text else type(exc).__name__
+    return line if len(line) <= 200 else line[:199] + "…"

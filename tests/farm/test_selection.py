@@ -10,6 +10,7 @@ import socket
 import pytest
 
 import rap.dataset as ds
+from rap.errors import InputError
 from rap.enumerate import LABEL_BUDGET, Shortfall
 from rap.farm.selection import LabelConfig, LabelSummary, iter_jobs, prepare
 from rap.seeds import DEFAULT_ROOT_SEED
@@ -51,7 +52,7 @@ def test_a_prepare_that_fails_after_taking_the_lock_releases_it(tmp_path):
     out = tmp_path / "ds"
     ds.write_meta(out, ds.DatasetMeta(schema_version=ds.SCHEMA_VERSION, root_seed=1,
                                       params=SimParams(trials=100).to_dict(), command="x"))
-    with pytest.raises(ds.InputError, match="dataset was labelled with --seed 1"):
+    with pytest.raises(InputError, match="dataset was labelled with --seed 1"):
         prepare(config(out))
     assert sorted(p.name for p in out.iterdir()) == [ds.METADATA_FILE]
     with prepare(config(out, seed=1, trials=100)) as plan:  # not held by the failed prepare
@@ -130,5 +131,5 @@ def test_a_plan_whose_lock_was_released_does_not_run(tmp_path):
 
     plan = prepare(config(tmp_path / "ds"))
     plan.release()
-    with pytest.raises(ds.InputError, match="this plan's lock on the dataset was released"):
+    with pytest.raises(InputError, match="this plan's lock on the dataset was released"):
         run_label(plan.config, plan)

@@ -182,7 +182,7 @@ def test_a_full_disk_while_labelling_is_one_line_with_status_3_and_resumes(in_pr
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         return write_table(*args, **kwargs)
 
-    monkeypatch.setattr(ds.pq, "write_table", full_after_one)
+    monkeypatch.setattr(pq, "write_table", full_after_one)
     code, _, err = label(in_process, out, capsys)
     selected, line = err.strip().splitlines()  # "88 operations selected ...", the error
     assert code == 3 and line.startswith(f"rap-farm: error: {out}/")
@@ -190,7 +190,7 @@ def test_a_full_disk_while_labelling_is_one_line_with_status_3_and_resumes(in_pr
     assert not list(out.rglob(".tmp-*")) and not (out / ds.LOCK_FILE).exists()
     (committed,) = ds.shard_files(out)  # the shard written before the disk filled, intact
     assert ds.shard_problem(committed) is None
-    monkeypatch.setattr(ds.pq, "write_table", write_table)
+    monkeypatch.setattr(pq, "write_table", write_table)
     code, summary, err = label(in_process, out, capsys)
     assert code == 0, err
     assert open_dataset(out).count_rows() == total_operations(standin)
@@ -203,7 +203,7 @@ def test_metadata_that_cannot_be_written_is_one_line_with_status_3(in_process, t
     def full(*args):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
-    monkeypatch.setattr(ds.os, "fsync", full)
+    monkeypatch.setattr(os, "fsync", full)
     code, _, err = label(in_process, out, capsys)
     assert code == 3 and err.strip().splitlines()[1:] == [
         f"rap-farm: error: {out / ds.METADATA_FILE}: cannot write: disk full; committed files are "
