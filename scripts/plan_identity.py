@@ -1,4 +1,4 @@
-"""Maintainer tool: what ``rap-farm plan`` answers, written so that two commits compare by ``diff -r``.
+"""Maintainer tool: what ``rap-farm plan`` answers, written for ``diff -r`` between two commits.
 
     python scripts/plan_identity.py OUT    # the ``rap`` imported (it says where from, on stderr)
 
