@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -199,11 +199,12 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
             if resume is not None:
                 save_state(resume, capture(key, progress.epoch, progress.global_step,
                                            progress.train_seconds, model, opt, rng, device,
-                                           progress.last()))
+                                           progress.last))
         model.eval()
         n_trials = int(np.bincount(data.trials).argmax())
-        metrics = {"train": {"loss": progress.loss_sum / progress.seen,
-                             "accuracy": progress.hits / progress.seen,
+        last = progress.last
+        metrics = {"train": {"loss": last["loss_sum"] / last["seen"],
+                             "accuracy": last["hits"] / last["seen"],
                              "rows": len(data), "high_rows": int(counts[1]),
                              "samples_per_s": len(data) * config.epochs
                              / max(progress.train_seconds, 1e-9)}}
@@ -244,19 +245,15 @@ def _optimizer(model: RobustnessCNN, config: TrainConfig) -> torch.optim.Optimiz
 
 @dataclass
 class _Progress:
-    """Where a run stands: epochs done, optimiser steps, training seconds, and the running sums of
-    the last epoch (loss, correct, rows)."""
+    """Where a run stands: epochs done, optimiser steps, training seconds, and ``last``: the last
+    epoch's running sums (``loss_sum``: loss times rows, ``hits``: correct predictions, ``seen``:
+    rows), as the epoch state stores them."""
 
     steps: int  # batches an epoch
     epoch: int = 0
     global_step: int = 0
     train_seconds: float = 0.0
-    loss_sum: float = 0.0
-    hits: int = 0
-    seen: int = 0
-
-    def last(self) -> dict:
-        return {"loss_sum": self.loss_sum, "hits": self.hits, "seen": self.seen}
+    last: dict = field(default_factory=lambda: {"loss_sum": 0.0, "hits": 0, "seen": 0})
 
 
 def _resume(path: str | Path, key: str, progress: _Progress, model, opt, rng,
@@ -270,8 +267,7 @@ def _resume(path: str | Path, key: str, progress: _Progress, model, opt, rng,
         state.restore(model, opt, rng, device)
         progress.epoch, progress.global_step = state.epoch, state.global_step
         progress.train_seconds = state.train_seconds
-        progress.loss_sum, progress.hits = state.last["loss_sum"], state.last["hits"]
-        progress.seen = state.last["seen"]
+        progress.last = {k: state.last[k] for k in ("loss_sum", "hits", "seen")}
         resumed["from_epoch"] = state.epoch
     return resumed
 
@@ -284,7 +280,7 @@ def _train_epoch(model: RobustnessCNN, opt, data, rng: np.random.Generator, w: t
     head = model.config.head
     total = progress.steps * config.epochs
     model.train()
-    progress.loss_sum, progress.hits, progress.seen = 0.0, 0, 0
+    loss_sum, hits, seen = 0.0, 0, 0
     te = time.perf_counter()
     for step, batch in enumerate(data.epoch(rng)):
         images, labels, successes, trials = batch[:4]
@@ -303,16 +299,16 @@ def _train_epoch(model: RobustnessCNN, opt, data, rng: np.random.Generator, w: t
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
-        progress.loss_sum += loss.item() * len(y)
+        loss_sum += loss.item() * len(y)
         with torch.no_grad():
             ph = heads.prob_high(out.detach(), head, config.threshold, int(trials[0]))
-        progress.hits += int(((ph >= 0.5).long() == y).sum())
-        progress.seen += len(y)
+        hits += int(((ph >= 0.5).long() == y).sum())
+        seen += len(y)
         if on_step is not None:
             on_step({"epoch": progress.epoch + 1, "epochs": config.epochs, "step": step + 1,
-                     "steps": progress.steps, "loss": progress.loss_sum / progress.seen,
-                     "accuracy": progress.hits / progress.seen})
+                     "steps": progress.steps, "loss": loss_sum / seen, "accuracy": hits / seen})
     progress.train_seconds += time.perf_counter() - te
+    progress.last = {"loss_sum": loss_sum, "hits": hits, "seen": seen}
     progress.epoch += 1
 
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from typing import Callable, Sequence
 
-from rap.plan.graph import Graph, Tree
+from rap.plan.graph import Graph, Tree, dp_tree
 
 __all__ = ["dp_choice_bounded", "SLACK"]
 
@@ -86,14 +86,4 @@ def dp_choice_bounded(graph: Graph, scores_of: Callable[[frozenset], Sequence[fl
     best, _ = value(whole, -1.0)
     if best <= 0.0:
         return 0.0, {}  # no sequence: the caller names the dead end (``dead_end``)
-    tree: Tree = {}
-    stack = [whole]
-    while stack:
-        s = stack.pop()
-        if len(s) < 2:
-            continue
-        i = exact[s][1]
-        op = graph[s][i]
-        tree[s] = (i, op)
-        stack += [op.moving, op.fixed]
-    return best, tree
+    return best, dp_tree(graph, {s: i for s, (_, i) in exact.items()}, whole)
