@@ -61,12 +61,11 @@ def first():
     class FirstOptions(PlannerOptions):
         """The toy planner's options."""
 
-        method: ClassVar[str] = "first"
-        needs_model: ClassVar[bool] = False
-        summary: ClassVar[str] = ""
-
         pick: int = option(int, 0, low=0, code="i", code_name="I",
                            help="Method {method}: the candidate taken at every subassembly")
+
+        method: ClassVar[str] = "first"
+        needs_model: ClassVar[bool] = False
 
         def build(self):
             return FirstPlanner(pick=self.pick)
