@@ -76,7 +76,7 @@ def measure(repeats: int = 2, max_ops: int = 4000, workers: int = 1,
     """Time ``run_label`` both ways on the connected Ray (printing a line a run); the best
     ceiling of each way, operations/s."""
     from rap.farm.driver import LabelConfig, prepare, run_label
-    from rap.farm.rows import Backend
+    from rap.labelling.rows import Backend
 
     tmp = Path(tempfile.mkdtemp())
     files = assemblies(tmp)

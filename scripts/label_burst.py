@@ -5,9 +5,9 @@
         [--verify DATASET --verify-assembly A.json --verify-rows 64]
     python scripts/label_burst.py @LIST --out DIR ...   # LIST: one argument per line
 
-It selects exactly what ``rap-farm label`` with the same options selects (``rap.farm.selection``:
+It selects exactly what ``rap-farm label`` with the same options selects (``rap.labelling.selection``:
 same checks, same seeded sample, same content keys and per-operation seeds) and labels it with the
-same row code (``rap.farm.rows.label_rows``), so its shards are indistinguishable from the farm's
+same row code (``rap.labelling.rows.label_rows``), so its shards are indistinguishable from the farm's
 and can be copied into the dataset that ``rap-farm label`` writes; the farm then skips them. It is
 for machines where Ray is not installed (the device machine lent to some sessions, 16 cores); on
 any machine with Ray, use ``rap-farm label``.
@@ -35,8 +35,8 @@ sys.path.insert(0, str(ROOT))
 
 from rap.dataset import (SCHEMA_VERSION, DatasetMeta, open_dataset, rows_to_table,  # noqa: E402
                          write_geometry, write_meta, write_shard)
-from rap.farm.rows import Backend, label_rows, params_json, resolve  # noqa: E402
-from rap.farm.selection import LabelConfig, LabelSummary, iter_jobs, prepare  # noqa: E402
+from rap.labelling.rows import Backend, label_rows, params_json, resolve  # noqa: E402
+from rap.labelling.selection import LabelConfig, LabelSummary, iter_jobs, prepare  # noqa: E402
 
 BATCH = 8  # operations per task
 _FUNCS: dict = {}

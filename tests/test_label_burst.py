@@ -5,7 +5,7 @@ import sys
 from pathlib import Path
 
 from rap.dataset import open_dataset, read_meta
-from rap.farm.selection import LabelConfig, LabelSummary, iter_jobs, prepare
+from rap.labelling.selection import LabelConfig, LabelSummary, iter_jobs, prepare
 
 ROOT = Path(__file__).resolve().parents[1]
 

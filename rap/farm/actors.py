@@ -30,7 +30,7 @@ import ray
 
 from rap.operation import Operation
 
-from rap.farm.rows import Backend, label_rows, resolve, rows_table
+from rap.labelling.rows import Backend, label_rows, resolve, rows_table
 from rap.farm.runtime import node_label
 
 __all__ = ["Backend", "SimTask", "BatchResult", "SimWorker", "resolve", "pack", "unpack"]
@@ -69,7 +69,7 @@ def unpack(operation: Operation | bytes) -> Operation:
 
 @dataclass
 class BatchResult:
-    """What a task returns: its rows as one table in ``rap.farm.rows.WIRE_SCHEMA`` (``image`` null
+    """What a task returns: its rows as one table in ``rap.labelling.rows.WIRE_SCHEMA`` (``image`` null
     when images were not asked for), in the task's order, and where the time went. The table is
     built on the worker, so the driver never handles a row as a Python object (``rows`` does, for
     callers that want dicts)."""

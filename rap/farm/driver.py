@@ -55,10 +55,10 @@ from rap.dataset import (SCHEMA_VERSION, DatasetMeta, clean_partial_files, write
 from rap.errors import InputError
 
 from rap.farm.pool import IDLE_TIMEOUT_S, Job, SimPool
-from rap.farm.rows import dataset_table
+from rap.labelling.rows import dataset_table
 from rap.farm.runtime import connect
 from rap.farm.prefetch import parallel_jobs
-from rap.farm.selection import (HIST_BINS, LabelConfig, LabelPlan, LabelSummary, iter_jobs, prepare,
+from rap.labelling.selection import (HIST_BINS, LabelConfig, LabelPlan, LabelSummary, iter_jobs, prepare,
                                selects_in_tasks)
 
 __all__ = ["PRESETS", "LabelConfig", "LabelPlan", "LabelSummary", "prepare", "run_label",

@@ -79,8 +79,8 @@ from rap.errors import WorkFailedError
 from rap.operation import Operation
 
 from rap.farm.actors import Backend, BatchResult, SimTask, SimWorker
-from rap.farm.rows import params_json, rows_table
-from rap.farm.selection import Job
+from rap.labelling.rows import params_json, rows_table
+from rap.labelling.selection import Job
 from rap.farm.runtime import cluster_cpus
 
 __all__ = ["SimPool", "Job", "Scored", "FarmError", "params_json", "IDLE_TIMEOUT_S"]

@@ -1,7 +1,7 @@
 """Selection in parallel: each assembly's operations selected by a Ray task of its own.
 
 ``parallel_jobs(plan, summary, skipped, tasks=N)`` yields exactly the jobs of
-``rap.farm.selection.iter_jobs(plan, summary, skipped)`` (every selected operation not yet in the
+``rap.labelling.selection.iter_jobs(plan, summary, skipped)`` (every selected operation not yet in the
 dataset, once, with the same content key and seed, and the same ``summary`` counts: existing,
 short and failed selections), but the selecting (counting the space and building the NDBG,
 sampling or enumerating partitions, hashing keys: the driver's largest cost per row) runs in up
@@ -25,7 +25,7 @@ from typing import Callable, Iterator
 import ray
 
 from rap.farm.actors import pack
-from rap.farm.selection import (Job, LabelPlan, LabelSummary, Outcome, recount, record,
+from rap.labelling.selection import (Job, LabelPlan, LabelSummary, Outcome, recount, record,
                                select_jobs)
 
 __all__ = ["parallel_jobs", "CHUNK", "AHEAD"]

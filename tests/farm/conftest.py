@@ -75,7 +75,7 @@ def fake_enum(monkeypatch):
     """Always the stand-in selection (small, known operation lists)."""
     from tests.farm import standin
 
-    import rap.farm.selection as selection
+    import rap.labelling.selection as selection
 
     monkeypatch.setattr(selection, "select_operations", standin.select_operations)
     return standin

@@ -44,7 +44,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from rap.farm.rows import Backend  # noqa: E402
+from rap.labelling.rows import Backend  # noqa: E402
 
 __all__ = ["FakeCluster", "GATED", "free_port", "gated_simulate"]
 

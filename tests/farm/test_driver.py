@@ -142,7 +142,7 @@ import ray
 ray.init(address={address!r}, runtime_env={{"env_vars": {{"PYTHONPATH": {root!r}}}}},
          log_to_driver=False)
 import rap.farm.driver as driver
-import rap.farm.selection as selection
+import rap.labelling.selection as selection
 from tests.farm import standin
 from tests.farm.conftest import FAKE
 selection.select_operations = standin.select_operations

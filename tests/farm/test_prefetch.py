@@ -9,7 +9,7 @@ import pytest
 from rap.enumerate import Selection, select_operations
 from rap.farm.actors import unpack
 from rap.farm.prefetch import parallel_jobs
-from rap.farm.selection import LabelConfig, LabelSummary, iter_jobs, prepare
+from rap.labelling.selection import LabelConfig, LabelSummary, iter_jobs, prepare
 from rap.seeds import DEFAULT_ROOT_SEED
 
 from tests.farm.conftest import ASSEMBLIES

@@ -35,7 +35,7 @@ _LABEL_SCRIPT = r"""
 import dataclasses, sys
 sys.path.insert(0, {root!r})
 import rap.farm.driver as driver
-import rap.farm.selection as selection
+import rap.labelling.selection as selection
 from tests.farm import standin
 from tests.farm.conftest import FAKE
 selection.select_operations = standin.select_operations

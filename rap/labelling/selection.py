@@ -35,7 +35,7 @@ from rap.errors import InputError, RapError
 from rap.io import load_assembly
 from rap.operation import Operation
 
-from rap.farm.rows import Backend, resolve
+from rap.labelling.rows import Backend, resolve
 
 __all__ = ["Job", "LabelConfig", "LabelPlan", "LabelSummary", "Outcome", "prepare", "select_jobs",
            "record", "iter_jobs", "HIST_BINS"]

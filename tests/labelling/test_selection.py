@@ -12,7 +12,7 @@ import pytest
 import rap.dataset as ds
 from rap.errors import InputError
 from rap.enumerate import LABEL_BUDGET, Shortfall
-from rap.farm.selection import LabelConfig, LabelSummary, iter_jobs, prepare
+from rap.labelling.selection import LabelConfig, LabelSummary, iter_jobs, prepare
 from rap.seeds import DEFAULT_ROOT_SEED
 
 from tests.farm.conftest import ASSEMBLIES
