@@ -117,8 +117,9 @@ def module_exists(name: str) -> bool:
         elif (path / f"{part}.py").is_file():
             return True  # what follows is an attribute of the module
         else:
-            init = path / "__init__.py"
-            return init.is_file() and re.search(rf"\b{part}\b", init.read_text("utf-8")) is not None
+            init = path / "__init__.py"  # a name the package defines, imports or exports
+            defined = rf"(?:def|class)\s+{part}\b|^{part}\s*[:=]|import\b.*\b{part}\b|[\'\"]{part}[\'\"]"
+            return init.is_file() and re.search(defined, init.read_text("utf-8"), re.M) is not None
     return True
 
 
