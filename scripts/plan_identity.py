@@ -161,14 +161,16 @@ def cli(out: Path) -> None:
 
 
 def experiment_names(out: Path) -> None:
+    from rap.errors import InputError
     from rap.plan.experiment import method_planner
 
     doc = {}
     for name in EXPERIMENT_NAMES:
         try:
             p = method_planner(name, 5)
-        except Exception as exc:
-            doc[name] = {"error": type(exc).__name__, "message": str(exc)}
+        except Exception as exc:  # the kind a caller catches: InputError (exit 2) or another
+            kind = "InputError" if isinstance(exc, InputError) else type(exc).__name__
+            doc[name] = {"error": kind, "message": str(exc)}
         else:
             doc[name] = {"class": type(p).__name__, "name": p.name,
                          "attributes": {k: v for k, v in sorted(vars(p).items())}}
