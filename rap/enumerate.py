@@ -102,7 +102,7 @@ def iter_operations(assembly: Assembly, mode: str = "all", directions_per_range:
                     root_seed: int = 0) -> Iterator[Operation]:
     """Every operation of every reachable composite subassembly, lazily, in graph order.
 
-    Raises ``rap.geometry.partitions.TooManyPartitions`` past the geometry layer's
+    Raises ``rap.geometry.moving_sets.TooManyPartitions`` past the geometry layer's
     per-subassembly enumeration budget.
     """
     _check_mode(mode)

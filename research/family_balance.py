@@ -21,8 +21,8 @@ import numpy as np
 from rap.enumerate import label_seed
 from rap.geometry.andor import and_or_graph
 from rap.geometry.families import FAMILIES, generate
+from rap.geometry.moving_sets import TooManyPartitions
 from rap.geometry.ndbg import build_ndbg
-from rap.geometry.partitions import TooManyPartitions
 from rap.sim.params import SimParams
 from rap.seeds import derive_seed
 from rap.sim.simulator import simulate

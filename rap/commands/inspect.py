@@ -29,7 +29,7 @@ def inspect_json(assembly, ndbg) -> dict:
 
 def _count(fn, budget_text):
     """fn(), or ``budget_text`` (None: the budget error's message) when a budget is exceeded."""
-    from rap.geometry.partitions import TooManyPartitions
+    from rap.geometry.moving_sets import TooManyPartitions
 
     try:
         return fn()

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 from typing import Iterable
 
 from rap.geometry.ndbg import NDBG
-from rap.geometry.partitions import (DEFAULT_MAX_COUNT, Partition, TooManyPartitions,
-                                     all_partitions, online_partitions, partition_specs,
-                                     spec_is_vertex)
+from rap.geometry.moving_sets import TooManyPartitions
+from rap.geometry.partitions import (DEFAULT_MAX_COUNT, Partition, all_partitions,
+                                     online_partitions, partition_specs, spec_is_vertex)
 
 __all__ = ["AndOrGraph", "and_or_graph", "iter_partitions", "count_partitions", "decomposition",
            "MODES"]

@@ -137,7 +137,7 @@ class NDBG:
     @property
     def toggle_pairs(self) -> tuple:
         """The toggled pairs of every cell as three int64 numpy arrays ``(cell, i, j)`` (cell 0
-        included), for vectorised sweeps (``rap.geometry.partitions._changed_cells``)."""
+        included), for vectorised sweeps (``rap.geometry.moving_sets.changed_cells``)."""
         arrays = self.__dict__.get("_toggle_pairs")
         if arrays is None:
             import numpy as np

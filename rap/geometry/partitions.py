@@ -17,9 +17,15 @@ strictly inside the range (an exact interior vector replaces it if floats ever f
 * ``all_partitions`` enumerates the ideals of every distinct restricted DBG (O(|S|) per ideal),
   deduplicates them as (moving, fixed, maximal range), optionally samples ``limit`` of them
   uniformly with the given ``np.random.Generator``. The count can be exponential in |S|; more than
-  ``max_count`` (moving set, cell run) incidences raise ``TooManyPartitions``.
+  ``max_count`` (moving set, cell run) incidences raise
+  ``rap.geometry.moving_sets.TooManyPartitions``.
 * ``interlocked`` / ``is_interlocked``: no feasible partition in any cell.
 * ``cell_partition_counts``: the number of feasible moving sets per cell (capped; pictures).
+* ``range_partition``: the ``Partition`` of a moving set over a run of cells (exact bounds, exact
+  middle direction).
+
+The bitmask work (closures, the cells where a restricted DBG changes, ideals) lives in
+``rap.geometry.moving_sets``.
 """
 
 from __future__ import annotations
@@ -28,23 +34,18 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Iterable
 
-import numpy as np
-
-from rap.errors import InputError
 from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, arc_middle_unit,
                                 exact_direction, in_open_arc, primitive, unit)
+from rap.geometry.moving_sets import (TooManyPartitions, cell_segments, changed_cells, closure,
+                                      ideals, subset_mask)
 from rap.geometry.ndbg import NDBG
 from rap.operation import Operation
 
-__all__ = ["Partition", "TooManyPartitions", "online_partitions", "all_partitions",
+__all__ = ["Partition", "range_partition", "online_partitions", "all_partitions",
            "partition_specs", "partition_from_spec", "spec_is_vertex", "interlocked",
            "is_interlocked", "cell_partition_counts", "DEFAULT_MAX_COUNT"]
 
 DEFAULT_MAX_COUNT = 2_000_000
-
-
-class TooManyPartitions(InputError):
-    """Enumerating all partitions would exceed the configured budget."""
 
 
 @dataclass(frozen=True)
@@ -86,18 +87,10 @@ class Partition:
         return in_open_arc(p, self.range_start, self.range_end)
 
 
-def _members(ndbg: NDBG, subset) -> tuple[int, list[int]]:
-    pos = {p: i for i, p in enumerate(ndbg.ids)}
-    m = 0
-    for p in subset:
-        if p not in pos:
-            raise InputError(f"unknown part id {p!r}")
-        m |= 1 << pos[p]
-    idx = [i for i in range(ndbg.n) if m >> i & 1]
-    return m, idx
-
-
-def _range_partition(ndbg: NDBG, moving: int, m: int, kf: int, kl: int, whole: bool) -> Partition:
+def range_partition(ndbg: NDBG, moving: int, m: int, kf: int, kl: int, whole: bool) -> Partition:
+    """The partition of S = m moving the parts of mask ``moving`` in every direction of the cells
+    ``kf`` to ``kl`` (CCW; the whole circle when ``whole``), with its exact range bounds and its
+    middle direction, exact and strictly inside. O(1) big-int operations besides the names."""
     mov = ndbg.names(moving)
     fix = ndbg.names(m & ~moving)
     cells = ndbg.cells
@@ -148,27 +141,12 @@ def _runs(values: list[int]) -> list[tuple[int, int, int, bool]]:
     return runs
 
 
-def _closure(start: int, adj, within: int) -> int:
-    seen = start
-    frontier = start
-    while frontier:
-        new = 0
-        while frontier:
-            low = frontier & -frontier
-            new |= adj[low.bit_length() - 1]
-            frontier ^= low
-        new &= within & ~seen
-        seen |= new
-        frontier = new
-    return seen
-
-
 def _online_choice(out, inn, idx, m) -> int:
     Z = 0
     for v in idx:
         if not out[v] & m:
             Z |= 1 << v
-    seen = _closure(Z, inn, m)
+    seen = closure(Z, inn, m)
     best = Z & -Z
     if seen != m:
         R = m & ~seen  # closed under out-edges: every other sink component lies in R
@@ -180,8 +158,8 @@ def _online_choice(out, inn, idx, m) -> int:
             v = low.bit_length() - 1
             if v > limit_bit:
                 break
-            F = _closure(low, out, R)
-            B = _closure(low, inn, F)
+            F = closure(low, out, R)
+            B = closure(low, inn, F)
             if B == F:
                 best = B
                 break
@@ -192,24 +170,13 @@ def _online_choice(out, inn, idx, m) -> int:
     return best
 
 
-def _changed_cells(ndbg: NDBG, m: int) -> list[int]:
-    """Indices k >= 1 of the cells whose DBG restricted to the parts in m differs from k - 1's:
-    those with a toggled pair (i, j) of parts both in m. O(toggled pairs) numpy work on integer
-    arrays (``NDBG.toggle_pairs``), a few microseconds per thousand pairs."""
-    cell, first, second = ndbg.toggle_pairs
-    inside = np.unpackbits(np.frombuffer(m.to_bytes((ndbg.n + 7) // 8 or 1, "little"), np.uint8),
-                           bitorder="little")[:ndbg.n].astype(bool)
-    hit = cell[inside[first] & inside[second]]
-    return np.unique(hit[hit > 0]).tolist()
-
-
 def online_partitions(ndbg: NDBG, subset: Iterable[str]) -> list[Partition]:
     """RAP's online choice: one partition per cell, equal choices of adjacent cells merged.
 
     Returned in the CCW order of the range starts from angle 0. Empty when S has one part or is
     interlocked.
     """
-    m, idx = _members(ndbg, subset)
+    m, idx = subset_mask(ndbg, subset)
     if len(idx) < 2:
         return []
     cells = ndbg.cells
@@ -227,7 +194,7 @@ def online_partitions(ndbg: NDBG, subset: Iterable[str]) -> list[Partition]:
     cur = _online_choice(out0, inn, idx, m)
     choice[0] = cur
     last = 0
-    for k in _changed_cells(ndbg, m):
+    for k in changed_cells(ndbg, m):
         for t in range(last + 1, k):
             choice[t] = cur
         for i, jm in rows[k][1]:
@@ -243,59 +210,18 @@ def online_partitions(ndbg: NDBG, subset: Iterable[str]) -> list[Partition]:
         last = k
     for t in range(last + 1, N):
         choice[t] = cur
-    parts = [_range_partition(ndbg, mv, m, kf, kl, whole) for mv, kf, kl, whole in _runs(choice)]
+    parts = [range_partition(ndbg, mv, m, kf, kl, whole) for mv, kf, kl, whole in _runs(choice)]
     parts.sort(key=lambda p: angle_key(p.range_start))
     return parts
 
 
-def _ideals(idx: list[int], r: list[int], m: int, cap: int, count_only: bool = False):
-    """Nonempty proper successor-closed subsets of m (a list; with count_only their number,
-    at most cap + 1). Raises ``TooManyPartitions`` past cap when listing."""
-    n = max(idx) + 1
-    inn = [0] * n
-    for v in idx:
-        mm = r[v]
-        while mm:
-            low = mm & -mm
-            inn[low.bit_length() - 1] |= 1 << v
-            mm ^= low
-    reach = [0] * n
-    coreach = [0] * n
-    for v in idx:
-        reach[v] = _closure(1 << v, r, m)
-        coreach[v] = _closure(1 << v, inn, m)
-    res: list[int] = []
-    found = 0
-    stack = [(0, 0)]
-    while stack:
-        inc, exc = stack.pop()
-        und = m & ~(inc | exc)
-        if not und:
-            if inc and inc != m:
-                if count_only:
-                    found += 1
-                    if found > cap:
-                        return found
-                    continue
-                res.append(inc)
-                if len(res) > cap:
-                    raise TooManyPartitions(
-                        f"more than {cap} feasible moving sets in one cell; use a limit budget")
-            continue
-        low = und & -und
-        v = low.bit_length() - 1
-        stack.append((inc, exc | coreach[v]))
-        stack.append((inc | reach[v], exc))
-    return found if count_only else res
-
-
 def cell_partition_counts(ndbg: NDBG, subset: Iterable[str], cap: int = 100_000) -> list[int]:
     """Per cell, the number of feasible moving sets of S (capped at ``cap``), for pictures."""
-    m, idx = _members(ndbg, subset)
+    m, idx = subset_mask(ndbg, subset)
     cells = ndbg.cells
     if len(idx) < 2:
         return [0] * len(cells)
-    firsts = [0] + _changed_cells(ndbg, m)
+    firsts = [0] + changed_cells(ndbg, m)
     counts = [0] * len(cells)
     memo: dict[tuple, int] = {}
     r = [0] * ndbg.n
@@ -305,19 +231,11 @@ def cell_partition_counts(ndbg: NDBG, subset: Iterable[str], cap: int = 100_000)
         if c is None:
             for v, o in zip(idx, sig):
                 r[v] = o
-            c = memo[sig] = min(cap, _ideals(idx, r, m, cap, count_only=True))
+            c = memo[sig] = min(cap, ideals(idx, r, m, cap, count_only=True))
         end = firsts[a + 1] if a + 1 < len(firsts) else len(cells)
         for t in range(k, end):
             counts[t] = c
     return counts
-
-
-def _segments(ndbg: NDBG, m: int) -> tuple[list[int], list[int]]:
-    """First and last cell index of each maximal run of cells with one DBG restricted to m."""
-    N = len(ndbg.cells)
-    first = [0] + _changed_cells(ndbg, m)
-    last = [(first[s + 1] - 1) if s + 1 < len(first) else N - 1 for s in range(len(first))]
-    return first, last
 
 
 def partition_specs(ndbg: NDBG, subset: Iterable[str], max_count: int = DEFAULT_MAX_COUNT
@@ -329,12 +247,12 @@ def partition_specs(ndbg: NDBG, subset: Iterable[str], max_count: int = DEFAULT_
     ``Partition``. Raises ``TooManyPartitions`` past ``max_count`` (moving set, cell run)
     incidences. Cost: O(|S|) per ideal of every distinct restricted DBG.
     """
-    m, idx = _members(ndbg, subset)
+    m, idx = subset_mask(ndbg, subset)
     if len(idx) < 2:
         return []
     cells = ndbg.cells
     N = len(cells)
-    seg_first, seg_last = _segments(ndbg, m)
+    seg_first, seg_last = cell_segments(ndbg, m)
     S = len(seg_first)
     memo: dict[tuple, list[int]] = {}
     where: dict[int, list[int]] = {}
@@ -342,16 +260,16 @@ def partition_specs(ndbg: NDBG, subset: Iterable[str], max_count: int = DEFAULT_
     r = [0] * ndbg.n
     for s, k in enumerate(seg_first):
         sig = tuple(cells[k].outs[v] & m for v in idx)
-        ideals = memo.get(sig)
-        if ideals is None:
+        sets = memo.get(sig)
+        if sets is None:
             for v, o in zip(idx, sig):
                 r[v] = o
-            ideals = _ideals(idx, r, m, max_count)
-            memo[sig] = ideals
-        count += len(ideals)
+            sets = ideals(idx, r, m, max_count)
+            memo[sig] = sets
+        count += len(sets)
         if count > max_count:
             raise TooManyPartitions(f"more than {max_count} partitions to enumerate")
-        for mv in ideals:
+        for mv in sets:
             where.setdefault(mv, []).append(s)
     specs: list[tuple[int, int, int, bool]] = []
     for mv, segs in where.items():
@@ -372,9 +290,9 @@ def partition_specs(ndbg: NDBG, subset: Iterable[str], max_count: int = DEFAULT_
 def partition_from_spec(ndbg: NDBG, subset: Iterable[str], spec: tuple[int, int, int, bool]
                         ) -> Partition:
     """The ``Partition`` of a ``partition_specs`` tuple of S."""
-    m, _ = _members(ndbg, subset)
+    m, _ = subset_mask(ndbg, subset)
     mv, kf, kl, whole = spec
-    return _range_partition(ndbg, mv, m, kf, kl, whole)
+    return range_partition(ndbg, mv, m, kf, kl, whole)
 
 
 def spec_is_vertex(ndbg: NDBG, spec: tuple[int, int, int, bool]) -> bool:
@@ -394,10 +312,10 @@ def all_partitions(ndbg: NDBG, subset: Iterable[str], limit: int | None = None, 
     """
     if limit is not None and rng is None:
         raise ValueError("all_partitions: rng is required when limit is given")
-    m, idx = _members(ndbg, subset)
+    m, idx = subset_mask(ndbg, subset)
     if len(idx) < 2:
         return []
-    result = [_range_partition(ndbg, mv, m, kf, kl, whole)
+    result = [range_partition(ndbg, mv, m, kf, kl, whole)
               for mv, kf, kl, whole in partition_specs(ndbg, subset, max_count)]
     result.sort(key=lambda p: (sorted(p.moving), angle_key(p.range_start)))
     if limit is not None and len(result) > limit:

@@ -41,8 +41,8 @@ import numpy as np
 
 from rap.geometry.exact import IVec, exact_direction, in_open_arc
 from rap.geometry.ndbg import NDBG
-from rap.geometry.partitions import (Partition, _closure, _range_partition, _segments,
-                                     online_partitions)
+from rap.geometry.moving_sets import cell_segments, closure
+from rap.geometry.partitions import Partition, online_partitions, range_partition
 
 __all__ = ["SAMPLING_MODES", "random_partition", "random_disassembly", "directions_in_range"]
 
@@ -74,7 +74,7 @@ def _random_spec(ndbg: NDBG, m: int, rng: np.random.Generator):
     """One (moving mask, first cell, last cell, whole) of S = m, drawn as the module says."""
     idx = _bits(m)
     cells = ndbg.cells
-    first, last = _segments(ndbg, m)
+    first, last = cell_segments(ndbg, m)
     n_seg = len(first)
     r = [0] * ndbg.n
     for s in rng.permutation(n_seg):
@@ -84,7 +84,7 @@ def _random_spec(ndbg: NDBG, m: int, rng: np.random.Generator):
             r[v] = outs[v] & m
         moving = 0
         for i in rng.permutation(len(idx)):
-            c = _closure(1 << idx[int(i)], r, m)
+            c = closure(1 << idx[int(i)], r, m)
             if c != m:
                 moving = c
                 break
@@ -92,7 +92,7 @@ def _random_spec(ndbg: NDBG, m: int, rng: np.random.Generator):
             continue  # strongly connected here: no feasible partition in this segment
         while rng.random() < 0.5:
             rest = [v for v in idx if not moving >> v & 1]
-            grown = moving | _closure(1 << rest[int(rng.integers(len(rest)))], r, m)
+            grown = moving | closure(1 << rest[int(rng.integers(len(rest)))], r, m)
             if grown == m:
                 break
             moving = grown
@@ -130,7 +130,7 @@ def _random_partition(ndbg: NDBG, m: int, rng: np.random.Generator, mode: str) -
     if spec is None:
         return None
     moving, kf, kl, whole = spec
-    return _range_partition(ndbg, moving, m, kf, kl, whole)
+    return range_partition(ndbg, moving, m, kf, kl, whole)
 
 
 def random_disassembly(ndbg: NDBG, rng: np.random.Generator, mode: str = "all",

@@ -6,7 +6,7 @@ import pytest
 
 from rap.geometry.andor import and_or_graph
 from rap.geometry.ndbg import build_ndbg
-from rap.geometry.partitions import TooManyPartitions
+from rap.geometry.moving_sets import TooManyPartitions
 
 from .fixtures import DOVETAIL, FRAMED_LOOSE, GRID2, SINGLE, TWO_SIDE_BY_SIDE
 

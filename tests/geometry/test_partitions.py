@@ -2,17 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from rap.geometry.exact import in_open_arc
+from rap.geometry.moving_sets import TooManyPartitions
 from rap.geometry.ndbg import build_ndbg, is_feasible_operation
-from rap.geometry.partitions import (TooManyPartitions, _online_choice, all_partitions,
-                                     interlocked, online_partitions)
-
-from rap.io import load_assembly
+from rap.geometry.partitions import _online_choice, all_partitions, interlocked, online_partitions
 
 from .fixtures import DOVETAIL, FAR_APART, FRAMED, FRAMED_LOOSE, GRID2, GRID3, L_AND_SQUARE, make, square
 
@@ -178,27 +174,3 @@ def test_cell_partition_counts():
     assert counts == [sum(p.contains(c.direction) for p in ps) for c in nd.cells]
     assert cell_partition_counts(nd, nd.ids, cap=2) == [min(2, c) for c in counts]
     assert cell_partition_counts(build_ndbg(FRAMED), FRAMED.ids) == [0] * len(build_ndbg(FRAMED).cells)
-
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _changed_cells_reference(ndbg, m):
-    """The per-cell loop that ``_changed_cells`` replaced by numpy (kept here as the oracle)."""
-    out = []
-    for k, (src, rows) in enumerate(ndbg.toggle_rows):
-        if k and src & m and any(jm & m and m >> i & 1 for i, jm in rows):
-            out.append(k)
-    return out
-
-
-@pytest.mark.parametrize("name", ["grid", "hexagon", "rectilinear", "pentagons"])
-def test_changed_cells_equal_the_per_cell_loop(name):
-    from rap.geometry.partitions import _changed_cells
-
-    ndbg = build_ndbg(load_assembly(ROOT / "assemblies" / f"{name}.json"))
-    rng = np.random.default_rng(5)
-    full = (1 << ndbg.n) - 1
-    masks = [full] + [int(rng.integers(1, full + 1)) for _ in range(200)]
-    for m in masks:
-        assert _changed_cells(ndbg, m) == _changed_cells_reference(ndbg, m)
