@@ -4,9 +4,11 @@
 returns an ``ImportResult`` whose ``assembly`` is validated exactly; ``rap.io.load_assembly``
 calls it with the default options for a ``.dxf`` or ``.svg`` path, so every command that takes an
 assembly takes a drawing. Modules, one family each: ``dxf`` and ``svg`` (readers: entities to
-float paths in the output unit), ``loops`` (joining paths into closed loops; exact rings on the
-grid with shared boundaries given the same vertices), ``parts`` (holes by containment, parts per
-loop or per layer), ``snap`` (the tolerance grid), ``importer`` (the pipeline and validation).
+float paths in the output unit), ``loops`` (joining paths into closed loops), ``edges`` (shared
+boundaries: ends merged into nodes, one geometry per edge, T-junctions split), ``rings`` (exact
+rings on the grid, shared boundaries given the same vertices, checked simple), ``parts`` (holes by
+containment, parts per loop or per layer), ``snap`` (the tolerance grid), ``importer`` (the
+pipeline and validation).
 
 Layer: above ``rap.assembly`` and ``rap.geometry``, beside ``rap.io`` (which imports it lazily);
 no ray, torch or rendering. ezdxf and svgelements are imported inside the readers.

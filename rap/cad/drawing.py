@@ -4,9 +4,9 @@ A reader (``rap.cad.dxf``, ``rap.cad.svg``) turns each entity or subpath into a 
 pieces are consecutive primitives (a line, an arc, a Bezier, a spline...), each already flattened
 to a float polyline whose chords stay within the chordal tolerance of the curve, in the output unit
 (millimetres by default), y up. Each piece keeps its first and last points exactly as the entity
-defines them, so that the ends of pieces can be joined, merged and split by ``rap.cad.loops``; the
-interior points are the curve's flattening. ``Source`` names the entity in error messages (a DXF
-handle and layer, an SVG element id) and gives the parts their ids.
+defines them, so that the ends of pieces can be joined (``rap.cad.loops``), merged and split
+(``rap.cad.edges``); the interior points are the curve's flattening. ``Source`` names the entity
+in error messages (a DXF handle and layer, an SVG element id) and gives the parts their ids.
 
 ``Problem`` is raised by the builders with a message that names the entities but not the file;
 ``rap.cad.importer`` turns it into ``DrawingError``, an ``AssemblyError`` (exit status 2) of one
@@ -15,13 +15,14 @@ line: ``FILE: ENTITY: problem``. No third-party imports.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 
 from rap.assembly import AssemblyError
 
 __all__ = ["Point", "Source", "DrawnPath", "Drawing", "Problem", "DrawingError", "UNITS_MM",
-           "fmt_length", "fmt_point"]
+           "distance", "fmt_length", "fmt_point"]
 
 Point = tuple[float, float]
 
@@ -103,6 +104,11 @@ class Drawing:
     paths: list[DrawnPath]
     unit_note: str  # e.g. "$INSUNITS 1 (in) -> mm", "width 100mm -> mm", "--scale 0.5 mm"
     ignored: Counter = field(default_factory=Counter)
+
+
+def distance(p: Point, q: Point) -> float:
+    """The Euclidean distance of two points of a drawing (floats, output units)."""
+    return math.hypot(p[0] - q[0], p[1] - q[1])
 
 
 def fmt_length(x: float) -> str:

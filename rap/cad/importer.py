@@ -6,7 +6,7 @@
    curves flattened to the tolerance;
 2. join open paths into closed loops (``rap.cad.loops.join_loops``);
 3. snap the loops onto the grid of the tolerance, shared boundaries given the same vertices
-   (``rap.cad.loops.exact_rings``: how touching stays touching);
+   (``rap.cad.rings.exact_rings``; ``rap.cad.edges``: how touching stays touching);
 4. nest the rings into parts with holes (``rap.cad.parts.group_parts``);
 5. build the assembly's JSON document (coordinates as exact decimals, multiples of the tolerance)
    and validate it as ``rap.io.parse_assembly`` does: ``rap.assembly.assembly_from_json``
@@ -29,8 +29,9 @@ from pathlib import Path
 
 from rap.assembly import Assembly, AssemblyError, assembly_from_json
 from rap.cad.drawing import UNITS_MM, DrawingError, Problem
-from rap.cad.loops import exact_rings, join_loops
+from rap.cad.loops import join_loops
 from rap.cad.parts import ExactPart, group_parts
+from rap.cad.rings import exact_rings
 from rap.cad.snap import Grid
 from rap.errors import InputError
 

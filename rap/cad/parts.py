@@ -29,7 +29,8 @@ from fractions import Fraction
 
 from rap.assembly import LIMITS
 from rap.cad.drawing import Problem, Source
-from rap.cad.loops import ExactRing, Node
+from rap.cad.edges import Node
+from rap.cad.rings import ExactRing
 from rap.geometry.exact import orient
 from rap.geometry.validation import point_in_ring
 

@@ -12,7 +12,7 @@ containment tests on indices are the exact tests on the coordinates.
 
 Snapping moves a point by at most ``step * sqrt(2) / 2``. Two floats that differ by rounding
 noise can land on neighbouring grid points; the importer never relies on that not happening: it
-merges endpoints within the tolerance before it snaps them (``rap.cad.loops``), so a shared
+merges endpoints within the tolerance before it snaps them (``rap.cad.edges``), so a shared
 vertex is snapped once. No third-party imports; O(1) per coordinate.
 """
 

@@ -1,14 +1,21 @@
-"""Named tiny drawings for the CAD import tests: DXF files written with ezdxf, SVG files by hand.
+"""Named tiny drawings for the CAD import tests: DXF files written with ezdxf, SVG files by hand,
+and drawn paths (no files) for the loop, ring and part builders.
 
 Each ``dxf_*`` function writes its drawing to ``tmp_path / NAME.dxf`` and returns the path.
 """
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 from pathlib import Path
 
 import ezdxf
+
+from rap.cad.drawing import DrawnPath, Source
+from rap.cad.loops import join_loops
+from rap.cad.rings import exact_rings
+from rap.cad.snap import Grid
 
 MM, INCH, UNITLESS = 4, 1, 0
 
@@ -214,3 +221,28 @@ def write(tmp: Path, name: str, text: str) -> Path:
 def area(part) -> Fraction:
     """A part's exact area (outline less holes)."""
     return abs(part.area())
+
+
+# -- drawn paths (no files) ----------------------------------------------------------------------
+
+GRID = Grid.parse("0.01")
+
+
+def src(name: str, order: int = 0, layer: str = "0") -> Source:
+    return Source("dxf", "LWPOLYLINE", name, layer, order)
+
+
+def polygon(points, name, order=0, layer="0") -> DrawnPath:
+    """A closed path of straight pieces."""
+    n = len(points)
+    return DrawnPath([[points[i], points[(i + 1) % n]] for i in range(n)], src(name, order, layer),
+                     True)
+
+
+def arc(cx, cy, r, a0, a1, n) -> list:
+    return [(cx + r * math.cos(a0 + (a1 - a0) * k / n), cy + r * math.sin(a0 + (a1 - a0) * k / n))
+            for k in range(n + 1)]
+
+
+def rings_of(paths, grid=GRID):
+    return exact_rings(join_loops(paths, grid.step_float, "mm"), grid, "mm")
