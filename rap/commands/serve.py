@@ -53,7 +53,7 @@ def serve_command(
     config.check()  # before starting Ray: a refused configuration costs nothing
     if address is not None and not address.strip():
         raise InputError("--address: empty")
-    from rap.farm.serve import run_service
+    from rap.farm.launch import run_service
 
     run_service(config, address=address, echo=lambda s: err.print(s, highlight=False))
 

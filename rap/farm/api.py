@@ -40,6 +40,7 @@ from rap.plan.methods import DEFAULT_METHOD, METHODS, service_options
 from rap.seeds import DEFAULT_ROOT_SEED
 
 __all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "read_upload", "is_loopback",
+           "PLAN_BODY_OPENAPI", "UPLOAD_OPENAPI", "UPLOAD_NAME_HELP",
            "REQUEST_KEYS", "DETAILS_HEADER", "PLANNER_OPTIONS", "UPLOAD_SUFFIXES"]
 
 REQUEST_KEYS = ("assembly", "method", "seed", "options")
@@ -232,3 +233,49 @@ def read_upload(name: str | None, body: bytes, *, max_parts: int = 64,
         raise BadRequest(413, f"{base}: {vertices} vertices; this service reads at most "
                               f"{max_vertices} in all")
     return assembly
+
+
+# -- the request bodies in the OpenAPI document (the endpoints read the raw body themselves) ---
+PLAN_BODY_OPENAPI = {
+    "requestBody": {
+        "required": True,
+        "content": {"application/json": {"schema": {
+            "type": "object", "required": ["assembly"], "additionalProperties": False,
+            "properties": {
+                "assembly": {"type": "object", "description": "An assembly file's JSON: "
+                             "{\"name\": ..., \"parts\": [{\"id\", \"polygon\", \"holes\"}]}"},
+                "method": {"type": "string", "enum": list(METHODS), "default": DEFAULT_METHOD},
+                "seed": {"type": "integer", "description": "Root seed of the simulator's "
+                         "randomness", "default": DEFAULT_ROOT_SEED},
+                "options": {"type": "object", "additionalProperties": False,
+                            "description": "The method's options, as `rap-farm plan`'s "
+                            "(search: simulations, trust, optimism, beam_width; rap: "
+                            "fallback_k, high_probability, fallback_optimism), e.g. {\"simulations\": 200, "
+                            "\"optimism\": 0.1}",
+                            "properties": {k: {"type": "integer" if kind is int else "number"}
+                                           for k, (_, kind, *_rest) in PLANNER_OPTIONS.items()}}}}}},
+    },
+    "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document)"},
+                  "400": {"description": "Malformed request or invalid assembly"},
+                  "401": {"description": "Missing or wrong bearer token"},
+                  "413": {"description": "Body or assembly too large"},
+                  "503": {"description": "Reading or planning past the request's time budget"}},
+}
+
+
+UPLOAD_OPENAPI = {
+    "requestBody": {
+        "required": True,
+        "content": {"application/octet-stream": {"schema": {
+            "type": "string", "format": "binary",
+            "description": "The file's bytes, as they are on disk: a drawing (.dxf, .svg) or an "
+                           "assembly file (.json); the suffix of `name` says which"}}},
+    },
+    "responses": {"400": {"description": "No or unknown `name`, or a bad drawing or assembly "
+                                         "(one line naming the entity or part and the problem)"},
+                  "401": {"description": "Missing or wrong bearer token"},
+                  "413": {"description": "Body or assembly too large"},
+                  "503": {"description": "Reading (or, for /inspect, the NDBG) past its time "
+                                         "budget"}},
+}
+UPLOAD_NAME_HELP = f"The file's name; its suffix ({', '.join(UPLOAD_SUFFIXES)}) chooses the reader"

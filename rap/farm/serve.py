@@ -50,7 +50,7 @@ bookkeeping thread-safe), CNN forward passes take turns. Further requests wait i
 The request contract (``ServeConfig``, ``parse_plan_request``) lives in ``rap.farm.api``, which
 imports neither ray nor fastapi.
 
-Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
+Running it: ``rap.farm.launch.run_service``. Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
 with a token every endpoint but the documentation and the page's static files needs
 ``Authorization: Bearer <token>`` (the page sends it on each of its requests). The token
 travels in clear text over plain HTTP: beyond one machine, put the service behind TLS (a reverse
@@ -64,17 +64,11 @@ import asyncio
 import hmac
 import json
 import logging
-import os
-import signal
-import socket
 import threading
 import time
-import urllib.error
-import urllib.request
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict
 from pathlib import Path
-from typing import Callable
 
 from fastapi import Query, Request, Security
 from fastapi.exceptions import RequestValidationError
@@ -88,15 +82,13 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from rap import __version__
 from rap.assembly import Assembly, assembly_to_json
 from rap.errors import InputError, RapError
-from rap.plan.methods import DEFAULT_METHOD, METHODS, needs_model
+from rap.plan.methods import needs_model
 from rap.plan.scorers import Budget
-from rap.seeds import DEFAULT_ROOT_SEED
 
-from rap.farm.api import (DETAILS_HEADER, PLANNER_OPTIONS, UPLOAD_SUFFIXES, BadRequest,
-                          ServeConfig, parse_plan_request, read_upload)
+from rap.farm.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
+                          BadRequest, ServeConfig, parse_plan_request, read_upload)
 
-__all__ = ["PlanningApp", "build_app", "run_service", "wait_healthy", "inspect_document",
-           "APP_NAME", "STATIC_DIR"]
+__all__ = ["PlanningApp", "build_app", "inspect_document", "APP_NAME", "STATIC_DIR"]
 
 APP_NAME = "rap-farm"
 _log = logging.getLogger("rap.farm.serve")
@@ -126,51 +118,6 @@ api = FastAPIOffline(
 api.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 _bearer = HTTPBearer(auto_error=False, description="Needed when the service was started with a "
                                                    "token (always beyond loopback).")
-
-_PLAN_BODY_SCHEMA = {
-    "requestBody": {
-        "required": True,
-        "content": {"application/json": {"schema": {
-            "type": "object", "required": ["assembly"], "additionalProperties": False,
-            "properties": {
-                "assembly": {"type": "object", "description": "An assembly file's JSON: "
-                             "{\"name\": ..., \"parts\": [{\"id\", \"polygon\", \"holes\"}]}"},
-                "method": {"type": "string", "enum": list(METHODS), "default": DEFAULT_METHOD},
-                "seed": {"type": "integer", "description": "Root seed of the simulator's "
-                         "randomness", "default": DEFAULT_ROOT_SEED},
-                "options": {"type": "object", "additionalProperties": False,
-                            "description": "The method's options, as `rap-farm plan`'s "
-                            "(search: simulations, trust, optimism, beam_width; rap: "
-                            "fallback_k, high_probability, fallback_optimism), e.g. {\"simulations\": 200, "
-                            "\"optimism\": 0.1}",
-                            "properties": {k: {"type": "integer" if kind is int else "number"}
-                                           for k, (_, kind, *_rest) in PLANNER_OPTIONS.items()}}}}}},
-    },
-    "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document)"},
-                  "400": {"description": "Malformed request or invalid assembly"},
-                  "401": {"description": "Missing or wrong bearer token"},
-                  "413": {"description": "Body or assembly too large"},
-                  "503": {"description": "Reading or planning past the request's time budget"}},
-}
-
-
-_UPLOAD_SCHEMA = {
-    "requestBody": {
-        "required": True,
-        "content": {"application/octet-stream": {"schema": {
-            "type": "string", "format": "binary",
-            "description": "The file's bytes, as they are on disk: a drawing (.dxf, .svg) or an "
-                           "assembly file (.json); the suffix of `name` says which"}}},
-    },
-    "responses": {"400": {"description": "No or unknown `name`, or a bad drawing or assembly "
-                                         "(one line naming the entity or part and the problem)"},
-                  "401": {"description": "Missing or wrong bearer token"},
-                  "413": {"description": "Body or assembly too large"},
-                  "503": {"description": "Reading (or, for /inspect, the NDBG) past its time "
-                                         "budget"}},
-}
-_NAME_HELP = f"The file's name; its suffix ({', '.join(UPLOAD_SUFFIXES)}) chooses the reader"
-
 
 @api.get("/", include_in_schema=False)
 async def page():
@@ -349,7 +296,7 @@ class PlanningApp:
                 "cached_scores": info["cached_scores"], "trials": self.config.trials,
                 "served": self.served, "peak_concurrent": self.service.peak_concurrency()}
 
-    @api.post("/plan", summary="Plan a robust assembly sequence", openapi_extra=_PLAN_BODY_SCHEMA)
+    @api.post("/plan", summary="Plan a robust assembly sequence", openapi_extra=PLAN_BODY_OPENAPI)
     async def plan(self, request: Request,
                    creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
         # reading and exact validation run off the event loop: /health keeps answering
@@ -370,9 +317,9 @@ class PlanningApp:
         return JSONResponse(result.to_json(), headers={DETAILS_HEADER: details})
 
     @api.post("/import", summary="An assembly from a drawing (DXF, SVG) or an assembly file",
-              openapi_extra=_UPLOAD_SCHEMA)
+              openapi_extra=UPLOAD_OPENAPI)
     async def import_drawing(self, request: Request,
-                             name: str | None = Query(None, description=_NAME_HELP),
+                             name: str | None = Query(None, description=UPLOAD_NAME_HELP),
                              creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
         """The body is the file's bytes; 200 with the assembly JSON that ``rap-farm import``
         writes (read exactly, validated), ready for ``POST /plan``."""
@@ -380,9 +327,9 @@ class PlanningApp:
         return got if isinstance(got, JSONResponse) else JSONResponse(assembly_to_json(got))
 
     @api.post("/inspect", summary="A drawing's or assembly file's parts and NDBG cells",
-              openapi_extra=_UPLOAD_SCHEMA)
+              openapi_extra=UPLOAD_OPENAPI)
     async def inspect(self, request: Request,
-                      name: str | None = Query(None, description=_NAME_HELP),
+                      name: str | None = Query(None, description=UPLOAD_NAME_HELP),
                       creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
         """As ``/import``, and the NDBG: 200 with ``{"assembly": <assembly JSON>, "cells":
         [{"kind", "direction", "partitions"}]}`` (``inspect_document``), what the planning page
@@ -407,92 +354,3 @@ def build_app(config: ServeConfig):
     """The Serve application (``PlanningApp`` bound to ``config``)."""
     return PlanningApp.options(max_ongoing_requests=config.max_concurrent + 16).bind(
         {**asdict(config)})
-
-
-def _port_free(host: str, port: int) -> bool:
-    family = socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET
-    with socket.socket(family, socket.SOCK_STREAM) as s:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            s.bind((host.strip("[]"), port))
-        except OSError:
-            return False
-    return True
-
-
-def _url(host: str, port: int) -> str:
-    h = "127.0.0.1" if host in ("0.0.0.0", "") else ("[::1]" if host == "::" else host)
-    if ":" in h and not h.startswith("["):
-        h = f"[{h}]"
-    return f"http://{h}:{port}"
-
-
-def wait_healthy(url: str, token: str | None, timeout_s: float) -> dict:
-    """Poll ``url``/health until it answers 200; its JSON. ``TimeoutError`` otherwise."""
-    deadline = time.monotonic() + timeout_s
-    headers = {"Authorization": f"Bearer {token}"} if token else {}
-    last = "no answer"
-    while time.monotonic() < deadline:
-        try:
-            req = urllib.request.Request(url + "/health", headers=headers)
-            with urllib.request.urlopen(req, timeout=10) as resp:
-                return json.loads(resp.read())
-        except urllib.error.HTTPError as exc:
-            last = f"HTTP {exc.code}"
-        except (urllib.error.URLError, OSError, ValueError) as exc:
-            last = str(getattr(exc, "reason", exc))
-        time.sleep(0.5)
-    raise TimeoutError(f"the service did not become healthy in {timeout_s:.0f} s ({last})")
-
-
-def run_service(config: ServeConfig, *, address: str | None = None,
-                echo: Callable[[str], None] = print, ready_timeout_s: float = 600.0,
-                stop: threading.Event | None = None) -> None:
-    """Start (or join) Ray, deploy the service, print where it listens and serve until SIGINT or
-    SIGTERM (or ``stop`` is set); then remove it (and stop the embedded Ray, if started here)."""
-    from rap.farm.runtime import connect
-
-    config.check()
-    if address is None and not os.environ.get("RAY_ADDRESS") and not _port_free(config.host,
-                                                                                 config.port):
-        raise InputError(f"--port {config.port}: {config.host}:{config.port} is already in use")
-    logging.getLogger("ray.serve").setLevel(logging.WARNING)  # our own line says where it runs
-    stop = stop or threading.Event()
-    previous = {}
-    if threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            previous[sig] = signal.signal(sig, lambda *_: stop.set())
-    try:
-        with connect(address) as rt:
-            quiet = {"log_level": "WARNING", "enable_access_log": False}
-            try:
-                serve.start(proxy_location="HeadOnly", logging_config=quiet,
-                            http_options={"host": config.host, "port": config.port})
-                serve.run(build_app(config), name=APP_NAME, route_prefix="/", blocking=False,
-                          logging_config=quiet)
-            except Exception as exc:
-                first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-                raise InputError(f"cannot start the planning service: {first[:300]}") from None
-            try:
-                url = _url(config.host, config.port)
-                if not rt.started_here:  # the proxy runs on the cluster's head node
-                    health = None
-                else:
-                    health = wait_healthy(url, config.token, ready_timeout_s)
-                where = url if rt.started_here else f"port {config.port} of the cluster's head node"
-                echo(f"rap-farm planning service on {where} (docs: /docs)"
-                     + (f"; {health['workers']} simulation workers" if health else "")
-                     + "; Ctrl-C stops it")
-                while not stop.wait(1.0):
-                    pass
-                echo("stopping the planning service ...")
-            finally:
-                try:  # the application only: an embedded Ray takes Serve's actors with it, and
-                    # serve.shutdown() would print Ray's "(raylet) Task ServeController.
-                    # graceful_shutdown failed ..." on the user's console
-                    serve.delete(APP_NAME)
-                except Exception:
-                    pass
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
