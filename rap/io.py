@@ -1,10 +1,10 @@
 """Assembly files in, validated assemblies out: exact parsing plus exact geometric validation.
 
-``load_assembly(path)`` / ``parse_assembly(data)`` = ``rap.assembly`` (exact JSON parsing and
-structural checks) + ``rap.geometry.validation`` (simple rings, holes inside, interiors disjoint).
-This module sits above both, so that the data layer never imports the geometry layer. Every
-problem raises ``rap.assembly.AssemblyError``: one line naming the file, the part and the problem.
-Cost, within ``rap.assembly.LIMITS``: reading is linear in the file's size; validation is
+``load_assembly(path)`` / ``parse_assembly(data)`` = ``rap.assembly_reader`` (exact JSON parsing
+and structural checks) + ``rap.geometry.validation`` (simple rings, holes inside, interiors
+disjoint). This module sits above both, so that the data layer never imports the geometry layer.
+Every problem raises ``rap.assembly.AssemblyError``: one line naming the file, the part and the
+problem. Cost, within ``rap.assembly.LIMITS``: reading is linear in the file's size; validation is
 O(sum of q^2) exact-filtered segment pairs for the rings (q vertices per ring) plus the overlap
 test of parts whose boxes meet, O(n^2 q^2) in the worst case (n parts; a star ring, whose edges'
 boxes meet, is the worst case for one ring). Timings: ``python benchmarks/validation.py``,
@@ -16,8 +16,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from rap.assembly import LIMITS, Assembly, InputLimits, assembly_from_json, assembly_to_json, \
-    read_assembly_json
+from rap.assembly import LIMITS, Assembly, InputLimits, assembly_to_json
+from rap.assembly_reader import assembly_from_json, read_assembly_json
 from rap.cad.importer import DRAWING_SUFFIXES  # ezdxf and svgelements load when a drawing does
 from rap.geometry.validation import validate_assembly
 

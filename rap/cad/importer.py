@@ -9,7 +9,7 @@
    (``rap.cad.rings.exact_rings``; ``rap.cad.edges``: how touching stays touching);
 4. nest the rings into parts with holes (``rap.cad.parts.group_parts``);
 5. build the assembly's JSON document (coordinates as exact decimals, multiples of the tolerance)
-   and validate it as ``rap.io.parse_assembly`` does: ``rap.assembly.assembly_from_json``
+   and validate it as ``rap.io.parse_assembly`` does: ``rap.assembly_reader.assembly_from_json``
    (``LIMITS``) then ``rap.geometry.validation.validate_assembly`` (simple rings, holes strictly
    inside, interiors of parts disjoint). ``rap.io`` sits above this package and dispatches
    drawings to it, so the two steps are called here directly.
@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 from decimal import Decimal
 from pathlib import Path
 
-from rap.assembly import Assembly, AssemblyError, assembly_from_json
+from rap.assembly import Assembly, AssemblyError
+from rap.assembly_reader import assembly_from_json
 from rap.cad.drawing import UNITS_MM, DrawingError, Problem
 from rap.cad.loops import join_loops
 from rap.cad.parts import ExactPart, group_parts

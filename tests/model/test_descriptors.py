@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from model_fixtures import FAST_TRAIN, LEARN_MODEL
-from rap.assembly import assembly_from_json
+from rap.assembly_reader import assembly_from_json
 from rap.model.descriptors import DESCRIPTORS, DescriptorContext, operation_descriptors
 from rap.operation import Operation
 
