@@ -15,14 +15,18 @@ import subprocess
 import sys
 import tempfile
 from datetime import timedelta
+from decimal import Decimal
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 
-from rap.assembly import Assembly, AssemblyError
+from rap.assembly import Assembly, AssemblyError, assembly_to_json
+from rap.client import exact_json
 from rap.farm.api import BadRequest, parse_plan_request
 from rap.io import load_assembly
+from rap.plan.methods import DEFAULT_METHOD, METHODS
+from rap.seeds import DEFAULT_ROOT_SEED
 
 from tests.fuzz import assembly_texts, plan_bodies
 
@@ -48,8 +52,10 @@ def test_a_hostile_file_is_read_or_refused_in_one_line(text):
         except AssemblyError as exc:
             _one_line(str(exc))
             assert str(exc).startswith(f"{path}: "), str(exc)
-        else:  # a mutation that kept the assembly valid
-            assert isinstance(assembly, Assembly) and len(assembly) >= 1
+        else:  # a mutation that kept the assembly valid: written back, it reads the same
+            again = Path(tmp) / "again.json"
+            again.write_text(exact_json(assembly_to_json(assembly)), encoding="utf-8")
+            assert load_assembly(again) == assembly
 
 
 @FUZZ
@@ -60,8 +66,11 @@ def test_a_hostile_request_is_parsed_or_refused_with_a_4xx(body):
     except BadRequest as exc:
         assert exc.status in (400, 413), (exc.status, exc.message)
         _one_line(exc.message)
-    else:
-        assert isinstance(assembly, Assembly) and isinstance(seed, int)
+    else:  # accepted: the method and seed the body names (or the defaults), parts in bounds
+        doc = json.loads(body, parse_float=Decimal)
+        assert method == doc.get("method", DEFAULT_METHOD) and method in METHODS
+        assert seed == doc.get("seed", DEFAULT_ROOT_SEED) and type(seed) is int
+        assert type(assembly) is Assembly and 1 <= len(assembly) <= 64
 
 
 def _tangram_with(number: str) -> str:
