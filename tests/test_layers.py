@@ -92,3 +92,36 @@ def test_the_package_never_imports_the_research_or_its_tests():
     bad = sorted(f"{module_name(p)} -> {t}" for p in RAP.rglob("*.py") for t in imports(p)
                  if t.split(".")[0] in outside)
     assert not bad, bad
+
+
+def private_imports(path: Path) -> list[tuple[str, str]]:
+    """``(module, name)`` of every ``from rap... import _name`` in ``path`` (``__version__`` is
+    public)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    return [(node.module, a.name) for node in ast.walk(tree)
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0
+            and node.module.split(".")[0] == "rap"
+            for a in node.names if a.name.startswith("_") and a.name != "__version__"]
+
+
+def test_no_module_imports_another_modules_private_names():
+    """A leading underscore means "this module only": nothing in rap, research/, scripts/,
+    benchmarks/ or jobs/ imports such a name from another module. A test may reach into the one
+    module it mirrors (tests/geometry/test_partitions.py -> rap.geometry.partitions)."""
+    root = RAP.parent
+    bad = []
+    for folder in ("rap", "research", "scripts", "benchmarks", "jobs", "tests"):
+        for path in (root / folder).rglob("*.py"):
+            for module, name in private_imports(path):
+                rel = path.relative_to(root)
+                mirrored = (rel.parts[0] == "tests" and rel.name.startswith("test_")
+                            and module.split(".")[1:] == [*rel.parts[1:-1], rel.stem[5:]])
+                if not mirrored:
+                    bad.append(f"{rel}: from {module} import {name}")
+    assert not bad, bad
+
+
+def test_the_private_names_check_sees_a_private_import(tmp_path):
+    src = tmp_path / "m.py"
+    src.write_text("from rap.plan.search import _helper, public\nfrom rap import __version__\n")
+    assert private_imports(src) == [("rap.plan.search", "_helper")]
