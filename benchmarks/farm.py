@@ -117,7 +117,7 @@ def main() -> None:
             t0 = time.perf_counter()
             n = 0
             for res in pool.stream(jobs, params, images=images, total=len(jobs)):
-                n += len(res.rows)
+                n += res.num_rows
             wall = time.perf_counter() - t0
             rates[w], walls[w] = n / wall, wall
             inner[w] = dict(pool.stats)

@@ -83,25 +83,37 @@ def jobs_of(work, params, root_seed: int = 1):
     return [j for a, ops in by.values() for j in SimPool.jobs(a, ops, params, root_seed)]
 
 
+def machine_busy() -> tuple[float, float]:
+    """(busy, total) CPU seconds of the whole machine so far (``/proc/stat``; zeros elsewhere)."""
+    try:
+        with open("/proc/stat") as fh:
+            f = [float(x) for x in fh.readline().split()[1:]]
+    except OSError:
+        return 0.0, 0.0
+    idle = f[3] + (f[4] if len(f) > 4 else 0.0)  # idle + iowait
+    return sum(f) - idle, sum(f)
+
+
 def scaling(counts, ops_per_worker: int, params, backend) -> dict[int, tuple[int, float]]:
     from rap.farm.pool import SimPool
 
     work = sample(max(counts) * ops_per_worker)
     out = {}
-    print(f"{'workers':>7} {'ops':>5} {'seconds':>8} {'ops/s':>8} {'linear':>8} {'ratio':>6}  nodes")
+    print(f"{'workers':>7} {'ops':>5} {'seconds':>8} {'ops/s':>8} {'linear':>8} {'ratio':>6}  nodes"
+          f"  machine busy")
     for w in counts:
         jobs = jobs_of(work[:w * ops_per_worker], params)
         with SimPool(w, backend=backend) as pool:
             nodes = {i["node"] for i in pool.ready(timeout_s=600)}
-            t0 = time.perf_counter()
-            n = sum(len(res.rows) for res in pool.stream(jobs, params, images=True,
-                                                         total=len(jobs)))
-            dt = time.perf_counter() - t0
+            b0, t0 = machine_busy(), time.perf_counter()
+            n = sum(res.num_rows for res in pool.stream(jobs, params, images=True,
+                                                        total=len(jobs)))
+            dt, b1 = time.perf_counter() - t0, machine_busy()
         out[w] = (n, dt)
         rate = n / dt
         one = out[counts[0]][0] / out[counts[0]][1] / counts[0]
         print(f"{w:7d} {n:5d} {dt:8.2f} {rate:8.2f} {w * one:8.2f} {rate / (w * one):6.2f}  "
-              f"{len(nodes)}", flush=True)
+              f"{len(nodes):5d}  {(b1[0] - b0[0]) / max(b1[1] - b0[1], 1e-9):6.0%}", flush=True)
     return out
 
 
