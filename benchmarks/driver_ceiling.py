@@ -25,25 +25,18 @@ import shutil
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-@dataclass(frozen=True)
-class NullResult:
-    successes: int
-    trials: int
-    score: float
-    seconds: float
-
-
 def null_simulate(assembly, operation, params, rng):
     """No physics: a seeded score at once (the contract of ``rap.sim.simulator.simulate``)."""
+    from rap.sim.simulator import SimResult
+
     s = int(rng.integers(params.trials + 1))
-    return NullResult(s, params.trials, s / params.trials, 0.0)
+    return SimResult(s, params.trials, s / params.trials, 0.0)
 
 
 def blank_render(assembly, operation, params=None, size: int = 64):

@@ -28,7 +28,6 @@ import argparse
 import os
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -39,23 +38,16 @@ sys.path.insert(0, str(ROOT))
 from rap.enumerate import select_operations  # noqa: E402
 from rap.io import load_assembly  # noqa: E402
 from rap.sim.params import SimParams  # noqa: E402
+from rap.sim.simulator import SimResult  # noqa: E402
 
 NAMES = ["grid", "hexagon", "mixed-square", "pentagons", "rectilinear", "triangles"]
-
-
-@dataclass(frozen=True)
-class FixedResult:
-    successes: int
-    trials: int
-    score: float
-    seconds: float
 
 
 def fixed_time_simulate(assembly, operation, params, rng):
     """Sleep ``params.time_limit_s`` milliseconds (the benchmark's ``--op-ms``); a seeded score."""
     time.sleep(params.time_limit_s * 1e-3)
     s = int(rng.binomial(params.trials, 0.5))
-    return FixedResult(s, params.trials, s / params.trials, params.time_limit_s * 1e-3)
+    return SimResult(s, params.trials, s / params.trials, params.time_limit_s * 1e-3)
 
 
 def blank_render(assembly, operation, params=None, size: int = 64):
