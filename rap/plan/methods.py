@@ -71,6 +71,7 @@ class RapOptions(PlannerOptions):
     needs_model: ClassVar[bool] = True
     summary: ClassVar[str] = "the paper's greedy planner"
     presets: ClassVar[dict] = {"paper": PAPER_RAP}
+    planner: ClassVar[type] = RapPlanner
 
     fallback_k: int | None = option(
         int, None, low=1, code="k", code_name="K",
@@ -86,10 +87,6 @@ class RapOptions(PlannerOptions):
              "simulated score exceeds the next one's p + U (1 - p), p its expected score (1: all "
              "at once, the paper's rule with {high_probability} 0.5)")
 
-    def build(self) -> Planner:
-        return RapPlanner(high_probability=self.high_probability, fallback_k=self.fallback_k,
-                          fallback_optimism=self.fallback_optimism)
-
 
 @register
 @dataclass(frozen=True)
@@ -97,9 +94,7 @@ class SimOptions(PlannerOptions):
     """Simulator-only greedy: every candidate simulated, the best taken (``SimPlanner``)."""
 
     method: ClassVar[str] = "sim"
-
-    def build(self) -> Planner:
-        return SimPlanner()
+    planner: ClassVar[type] = SimPlanner
 
 
 @register
@@ -108,9 +103,7 @@ class OptimalOptions(PlannerOptions):
     """The most robust sequence by dynamic programming over the simulator's scores."""
 
     method: ClassVar[str] = "optimal"
-
-    def build(self) -> Planner:
-        return OptimalPlanner()
+    planner: ClassVar[type] = OptimalPlanner
 
 
 @register
@@ -119,12 +112,10 @@ class RandomOptions(PlannerOptions):
     """Random sequences, the sample closest to their mean robustness (``RandomPlanner``)."""
 
     method: ClassVar[str] = "random"
+    planner: ClassVar[type] = RandomPlanner
 
     samples: int = option(int, 50, low=1, service=False,
                           help="Random sequences (method {method})")
-
-    def build(self) -> Planner:
-        return RandomPlanner(self.samples)
 
 
 @register
@@ -134,6 +125,7 @@ class SearchOptions(PlannerOptions):
 
     method: ClassVar[str] = "search"
     needs_model: ClassVar[bool] = True
+    planner: ClassVar[type] = SearchPlanner
     summary: ClassVar[str] = ("the best product of the model's scores over every sequence, "
                               "dynamic programming or a beam")
 
@@ -154,11 +146,6 @@ class SearchOptions(PlannerOptions):
     max_operations: int = option(
         int, DEFAULT_MAX_OPERATIONS, low=1, code="b", code_name="OPS", cli=False, service=False,
         help="Method {method}: the exact search's budget of operations; beyond it, the beam")
-
-    def build(self) -> Planner:
-        return SearchPlanner(beam_width=self.beam_width, max_operations=self.max_operations,
-                             simulations=self.simulations, trust=self.trust,
-                             optimism=self.optimism)
 
 
 def method_options(method: str) -> type[PlannerOptions]:

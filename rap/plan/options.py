@@ -8,11 +8,9 @@ OMPL's planners declare their parameters once (``declareParam``) and their capab
     class SearchOptions(PlannerOptions):
         method: ClassVar[str] = "search"        # its name: plan --method, the service's "method"
         needs_model: ClassVar[bool] = True      # it scores operations with the CNN
+        planner: ClassVar[type] = SearchPlanner  # built with the options as keywords
         simulations: int = option(int, 0, low=0, code="s", code_name="N",
                                   help="Method {method}: simulations to spend while planning")
-
-        def build(self) -> Planner:
-            return SearchPlanner(simulations=self.simulations)
 
 Each ``option`` states its type (``int`` or ``float``), default, range (``low``, ``high``;
 ``low_open``: ``low`` itself excluded), help text (a template: ``{method}`` and the names of the
@@ -118,11 +116,13 @@ def option(kind: type, default, **spec) -> Any:
 @dataclass(frozen=True)
 class PlannerOptions:
     """A planning method's options, validated on construction; subclasses declare them with
-    ``option`` and implement ``build``. Class attributes: ``method`` (its name, without
-    ``-``), ``needs_model`` (scores with the CNN), ``summary`` (a line for ``--method``'s help,
-    or empty), ``presets`` (table-name suffix -> options, e.g. ``{"paper": {...}}``)."""
+    ``option``. Class attributes: ``method`` (its name, without ``-``), ``planner`` (the planner
+    class, which ``build`` calls with the options as keywords), ``needs_model`` (scores with the
+    CNN), ``summary`` (a line for ``--method``'s help, or empty), ``presets`` (table-name suffix
+    -> options, e.g. ``{"paper": {...}}``)."""
 
     method: ClassVar[str] = ""
+    planner: ClassVar[Callable | None] = None
     needs_model: ClassVar[bool] = False
     summary: ClassVar[str] = ""
     presets: ClassVar[dict] = {}
@@ -145,8 +145,11 @@ class PlannerOptions:
         return cls(**{k: v for k, v in given.items() if v is not None and k in names})
 
     def build(self):
-        """The planner (a ``rap.plan.planners.Planner``) with these options."""
-        raise NotImplementedError(f"{type(self).__name__}.build")
+        """The planner (a ``rap.plan.planners.Planner``): ``planner(**options)``; a method whose
+        planner is made otherwise overrides this."""
+        if self.planner is None:
+            raise NotImplementedError(f"{type(self).__name__}: no planner class to build")
+        return self.planner(**{o.name: getattr(self, o.name) for o in self.declared()})
 
     # -- experiment method names ----------------------------------------------------------------
     @classmethod

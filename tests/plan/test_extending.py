@@ -65,10 +65,8 @@ def first():
                            help="Method {method}: the candidate taken at every subassembly")
 
         method: ClassVar[str] = "first"
+        planner: ClassVar[type] = FirstPlanner
         needs_model: ClassVar[bool] = False
-
-        def build(self):
-            return FirstPlanner(pick=self.pick)
 
     try:
         yield FirstOptions
