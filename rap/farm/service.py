@@ -131,8 +131,8 @@ class PlanningService:
     ``workers`` actors); ``local_sim``: simulate in this actor instead (tests, no pool);
     ``engine``: the CNN's inference engine (``PredictorCnn.load``); torch by default: a
     long-lived service pays its import once, and its forward pass is faster than the numpy
-    engine's on small batches (search 1.10-1.18x faster on five unseen assemblies,
-    ``research/benchmarks/cnn_engines.py``)."""
+    engine's on search's small batches (``python -m research.benchmarks.cnn_engines``;
+    docs/RESULTS.md)."""
 
     def __init__(self, model_path: str | None = None, *, pool: SimPool | None = None,
                  workers: int | None = None, cache_path: str | None = None, device: str = "cpu",

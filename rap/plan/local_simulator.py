@@ -45,8 +45,8 @@ __all__ = ["LocalSimulator", "MIN_PROCESS_BATCH", "WARM_NICE"]
 #: operations (a greedy plan's evaluation: one per step) is simulated faster in the process itself
 MIN_PROCESS_BATCH = 8
 #: niceness of prestarted workers: while they load the simulator the parent plans on the same
-#: cores and comes first (a warm score cache needs no simulation at all: 1.9 s instead of 2.4 s
-#: for a 7-part plan on 2 cores); once the parent waits for their results they have the machine
+#: cores and comes first (a warm score cache needs no simulation at all; docs/RESULTS.md,
+#: "Planning latency"); once the parent waits for their results they have the machine
 WARM_NICE = 10
 
 
