@@ -13,7 +13,10 @@ Design (Ray's core patterns):
 
 * every assembly is ``ray.put`` once per pool (cached by geometry hash) and fetched once per worker;
 * operations are batched per task; with ``batch_size=None`` the batch adapts so that a task runs
-  about ``target_task_s`` (well over Ray's per-task overhead) and the last wave splits evenly;
+  about ``target_task_s`` (well over Ray's per-task overhead), or ``started actors / TASK_RATE``
+  seconds when that is longer (the driver then sends at most about ``TASK_RATE`` tasks a second,
+  a few ms of its CPU each, however large the cluster; up to ``max_batch`` operations), and the
+  last wave splits evenly;
 * at most ``per_worker_in_flight`` tasks per started actor are in flight (``ray.wait``); jobs are
   pulled from the input iterator only when there is room, so the driver's memory does not grow
   with the input;
@@ -47,7 +50,9 @@ from rap.farm.workers import IDLE_TIMEOUT_S, LOST, WAKE_S, FarmError, WorkerSet
 from rap.labelling.rows import params_json, rows_table
 from rap.labelling.selection import Job
 
-__all__ = ["SimPool", "Job", "Scored", "FarmError", "params_json", "IDLE_TIMEOUT_S"]
+__all__ = ["SimPool", "Job", "Scored", "FarmError", "params_json", "IDLE_TIMEOUT_S", "TASK_RATE"]
+
+TASK_RATE = 100.0  # tasks a second the adaptive batch aims at, at most, on a large pool
 
 
 @dataclass(frozen=True)
@@ -120,8 +125,9 @@ class SimPool(WorkerSet):
             b = self.batch_size
         elif self._per_op_s is None:
             b = 2
-        else:
-            b = int(round(self.target_task_s / max(self._per_op_s, 1e-6)))
+        else:  # a task of target_task_s, longer on a large pool: at most ~TASK_RATE tasks/s
+            task_s = max(self.target_task_s, self._started / TASK_RATE)
+            b = int(round(task_s / max(self._per_op_s, 1e-6)))
         b = max(1, min(b, self.max_batch))
         if remaining is not None:
             b = min(b, max(1, math.ceil(remaining / max(1, self._started))))

@@ -176,3 +176,22 @@ def test_a_failing_warm_up_fails_the_first_batch_in_one_line(ray_local, grid):
         pool.ready(timeout_s=60)
         with pytest.raises(FarmError, match="has no attribute 'nothing'"):
             list(pool.stream(SimPool.jobs(grid, standin.operations(grid)[:2], params, 5), params))
+
+
+def test_batches_grow_with_the_pool_so_the_task_rate_stays_bounded(ray_local):
+    """A task runs target_task_s, or started / TASK_RATE seconds on a large pool (the driver's
+    cost is per task), up to max_batch operations; the last wave still splits evenly."""
+    from rap.farm.pool import TASK_RATE, SimPool
+
+    with SimPool(1, backend=FAKE, target_task_s=1.0, max_batch=64) as pool:
+        pool._per_op_s = 0.1  # the real simulator's ~9 operations a second
+        sizes = {}
+        for started in (1, 2, 100, 500, 5000):
+            pool._started = started
+            sizes[started] = pool._batch_len(None)
+        pool._started = 500
+        last_wave = pool._batch_len(1000)
+        pool._started = 0
+    assert TASK_RATE == 100.0
+    assert sizes == {1: 10, 2: 10, 100: 10, 500: 50, 5000: 64}
+    assert last_wave == 2  # 1,000 operations left over 500 actors
