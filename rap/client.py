@@ -8,9 +8,9 @@ text, never through binary floats), so the service plans exactly the geometry th
 ``load_assembly`` reads here; a file without a ``"name"`` is sent under its file stem, as the local
 ``plan`` names it. ``post_plan`` returns the answer's body (the ``plan --out`` document) and the
 service's ``X-Plan-Details`` header (``eval_seconds`` and ``stats``, for the printed summary).
-Errors are one line: ``InputError`` (exit status 2) for a request the service refused (4xx, its
-``error`` text), a wrong URL or an unreachable service; ``ServiceError`` (3) for a failure inside it.
-No ray, no torch.
+Errors are one line naming the parameter ``server`` (a command shows its flag instead):
+``ParameterError`` (exit status 2) for a request the service refused (4xx, its ``error`` text), a
+wrong URL or an unreachable service; ``ServiceError`` (3) for a failure inside it. No ray, no torch.
 """
 
 from __future__ import annotations
@@ -23,16 +23,22 @@ from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
-from rap.errors import InputError, RapError
+from rap.errors import InputError, ParameterError, RapError
 from rap.farm.api import DETAILS_HEADER
 
 __all__ = ["plan_body", "post_plan", "exact_json", "ServiceError"]
 
 
 class ServiceError(RapError):
-    """The service failed on a valid request (5xx) or answered something unreadable. Exit 3."""
+    """The service at ``server`` failed on a valid request (5xx) or answered something
+    unreadable. Exit 3. The message names the parameter, ``server http://h:8000: the service
+    failed (HTTP 500): ...``; a command passes its flag as ``name``."""
 
     exit_code = 3
+
+    def __init__(self, server: str, reason: str, name: str = "server"):
+        self.server, self.reason = server, reason
+        super().__init__(f"{name} {server}: {reason}")
 
 
 def exact_json(value: Any) -> str:
@@ -91,7 +97,8 @@ def post_plan(server: str, body: bytes, *, token: str | None = None,
     """POST ``body`` to ``server``/plan; (plan document, details). See module doc for errors."""
     parsed = urllib.parse.urlsplit(server)
     if parsed.scheme not in ("http", "https") or not parsed.netloc:
-        raise InputError(f"--server {server}: expected http://HOST:PORT or https://HOST:PORT")
+        raise ParameterError("server", server, "expected http://HOST:PORT or https://HOST:PORT",
+                             quote=False)
     url = server.rstrip("/") + "/plan"
     headers = {"Content-Type": "application/json", "Accept": "application/json"}
     if token:
@@ -104,21 +111,21 @@ def post_plan(server: str, body: bytes, *, token: str | None = None,
     except urllib.error.HTTPError as exc:
         text = _error_text(exc.read())
         if exc.code == 401:
-            raise InputError(f"--server {server}: not authorised ({text}); pass --token or set "
-                             f"RAP_FARM_TOKEN") from None
+            raise ParameterError("server", server, f"not authorised ({text}); pass a token or "
+                                 f"set RAP_FARM_TOKEN", quote=False) from None
         if 400 <= exc.code < 500:
-            raise InputError(f"--server {server}: {text}") from None
-        raise ServiceError(f"--server {server}: the service failed (HTTP {exc.code}): "
-                           f"{text}") from None
+            raise ParameterError("server", server, text, quote=False) from None
+        raise ServiceError(server, f"the service failed (HTTP {exc.code}): {text}") from None
     except (urllib.error.URLError, OSError) as exc:
         why = getattr(exc, "reason", None) or exc
-        raise InputError(f"--server {server}: cannot reach the planning service ({why})") from None
+        raise ParameterError("server", server, f"cannot reach the planning service ({why})",
+                             quote=False) from None
     try:
         doc = json.loads(raw)
         details = json.loads(details_text) if details_text else {}
     except ValueError:
-        raise ServiceError(f"--server {server}: the answer is not JSON") from None
+        raise ServiceError(server, "the answer is not JSON") from None
     if not isinstance(doc, dict) or not isinstance(details, dict):
-        raise ServiceError(f"--server {server}: the answer is not a plan document")
+        raise ServiceError(server, "the answer is not a plan document")
     return doc, {"eval_seconds": float(details.get("eval_seconds", 0.0)),
                  "stats": dict(details.get("stats") or {})}

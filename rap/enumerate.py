@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
 from rap.assembly import Assembly
-from rap.errors import InputError
+from rap.errors import ParameterError
 from rap.operation import Operation, subset_key
 from rap.seeds import derive_rng, derive_seed
 
@@ -61,8 +61,20 @@ LABEL_BUDGET = 100_000  # operations an uncapped label may take from one assembl
 _PATIENCE = 64  # random trees in a row with nothing new before a sampled stream ends
 
 
-class TooManyOperations(InputError):
-    """An assembly's operation space is beyond the budget of an uncapped label."""
+class TooManyOperations(ParameterError):
+    """An assembly's operation space is beyond the budget of an uncapped label: ``limit`` None
+    refused. The message names the parameter that caps it (``for_name``: a command's flag)::
+
+        grid.json: more than 100,000 operations (counting stopped there); label a seeded sample
+        with limit K
+    """
+
+    def __init__(self, where: str, budget: int):
+        self.where = where
+        super().__init__("limit", None, f"more than {budget:,} operations (counting stopped there)")
+
+    def for_name(self, name: str) -> str:
+        return f"{self.where}: {self.reason}; label a seeded sample with {name} K"
 
 
 def label_key(op: Operation, geometry_hash: str, params_fingerprint: str, root_seed: int) -> str:
@@ -184,10 +196,15 @@ class Shortfall:
     space: int | None
     reason: str
 
-    def describe(self) -> str:
+    def describe(self, no_limit: str = "no limit") -> str:
+        """One line; when the space was counted and is larger than asked, how to label all of it:
+        ``(no limit labels all 20,796)`` (``no_limit``: the caller's words for it, e.g. a flag)."""
         space = (f"a space of {self.space:,}" if self.space is not None
                  else f"a space of more than {LABEL_BUDGET:,}")
-        return f"{self.selected:,} of {self.asked:,} operations asked ({space}): {self.reason}"
+        hint = (f" ({no_limit} labels all {self.space:,})"
+                if self.space is not None and self.space > self.asked else "")
+        return (f"{self.selected:,} of {self.asked:,} operations asked ({space}): {self.reason}"
+                f"{hint}")
 
 
 @dataclass(frozen=True)
@@ -251,8 +268,6 @@ class Selection:
         why = (f"the sampler stopped after {self.patience} random disassembly trees in a row "
                f"brought no new operation; the rest of the space lies in subassemblies its trees "
                f"reach rarely")
-        if space is not None:
-            why += f" (--max-ops-per-assembly 0 labels all {space:,})"
         return Shortfall(selected, self.total, space, why)
 
 
@@ -272,9 +287,7 @@ def select_operations(assembly: Assembly, limit: int | None, root_seed: int, mod
                             budget=budget if limit is None else min(limit, budget))
     if limit is None:
         if size is None:
-            raise TooManyOperations(
-                f"{assembly.source or assembly.name}: more than {budget:,} operations "
-                f"(counting stopped there); label a seeded sample with --max-ops-per-assembly K")
+            raise TooManyOperations(assembly.source or assembly.name, budget)
         return Selection(assembly, "all", size, size,
                          lambda: iter_operations(assembly, mode, directions_per_range, root_seed),
                          mode, directions_per_range)

@@ -37,15 +37,17 @@ class InputError(RapError):
 class ParameterError(InputError, ValueError):
     """A library call's ``parameter`` given a ``value`` it refuses, and why (``reason``). The
     message names the parameter (``trust 0.0: choose a score in (0, 1]``); a command shows
-    ``for_name(its flag)`` instead (``--trust 0.0: ...``). Exit status 2."""
+    ``for_name(its flag)`` instead (``--trust 0.0: ...``). A text value is quoted (``method
+    'bogus'``) unless ``quote=False`` (a name, a path or an address shown as given). Exit
+    status 2."""
 
-    def __init__(self, parameter: str, value, reason: str):
-        self.parameter, self.value, self.reason = parameter, value, reason
+    def __init__(self, parameter: str, value, reason: str, *, quote: bool = True):
+        self.parameter, self.value, self.reason, self.quote = parameter, value, reason, quote
         super().__init__(self.for_name(parameter))
 
     def for_name(self, name: str) -> str:
         """The message with ``name`` (e.g. a command's flag) in place of the parameter's."""
-        shown = repr(self.value) if isinstance(self.value, str) else self.value
+        shown = repr(self.value) if self.quote and isinstance(self.value, str) else self.value
         return f"{name} {shown}: {self.reason}"
 
 

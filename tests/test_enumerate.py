@@ -129,8 +129,12 @@ def test_selection_takes_all_sampled_or_refuses(grid, triangles):
     assert len(first) == 100 and first == list(select_operations(triangles, 100, 3))
     assert list(select_operations(triangles, 150, 3))[:100] == first  # growing K only adds
     big = grid_of(6)
-    with pytest.raises(TooManyOperations, match=f"more than {LABEL_BUDGET:,} operations"):
+    with pytest.raises(TooManyOperations) as err:  # the parameter; `rap-farm label` says its flag
         select_operations(big, None, 3)
+    assert err.value.parameter == "limit" and str(err.value) == (
+        f"{big.source or big.name}: more than {LABEL_BUDGET:,} operations (counting stopped "
+        f"there); label a seeded sample with limit K")
+    assert err.value.for_name("--max-ops-per-assembly").endswith("with --max-ops-per-assembly K")
     assert len(list(select_operations(big, 50, 3))) == 50
 
 

@@ -55,7 +55,8 @@ def resolve(recipe_name: str, channels: str | None = None, hidden: str | None = 
             descriptors: str | None = None, **fields):
     """(ModelConfig, TrainConfig) of the recipe with every non-None field overridden;
     ``channels``, ``hidden`` and ``descriptors`` are the options' text ("32,64,128,128",
-    "all")."""
+    "all"). An unknown recipe is one line naming ``--recipe``."""
+    from rap.commands._flags import flags
     from rap.model.recipes import recipe
 
     if descriptors is not None:
@@ -64,7 +65,8 @@ def resolve(recipe_name: str, channels: str | None = None, hidden: str | None = 
         fields["channels"] = _widths("--channels", channels, 4, "32,64,128,128")
     if hidden is not None:
         fields["hidden"] = _widths("--hidden", hidden, 3, "512,256,128")
-    return recipe(recipe_name, **fields)
+    with flags("recipe"):
+        return recipe(recipe_name, **fields)
 
 
 def _descriptor_names(text: str) -> tuple[str, ...]:

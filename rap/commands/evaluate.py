@@ -64,12 +64,15 @@ __all__ = ["register", "evaluate_command"]
 def _runner(no_ray: bool, device: str, console):
     """Ray tasks when allowed, available and useful (several cores or a cluster address, CPU
     training); otherwise the folds run one after the other in this process."""
+    from rap.commands._flags import flags
     from rap.model.evaluate import sequential_folds
     from rap.model.predict import resolve_device
 
     if no_ray:
         return sequential_folds, "in-process (--no-ray)"
-    if resolve_device(device).type != "cpu":
+    with flags("device"):
+        on_cpu = resolve_device(device).type == "cpu"
+    if not on_cpu:
         return sequential_folds, "in-process on the GPU"
     if (os.cpu_count() or 1) < 2 and not os.environ.get("RAY_ADDRESS"):
         return sequential_folds, "in-process (one core)"
@@ -148,6 +151,7 @@ def evaluate_command(
                       f"{100 * m['accuracy']:.1f}% (ceiling {100 * m.get('ceiling', float('nan')):.1f}%) "
                       f"on {m['rows']} rows ({f['seconds']:.0f} s)")
 
+    from rap.commands._flags import flags
     from rap.model.evaluate import sequential_folds
 
     if runner is sequential_folds:  # in this process: a progress bar per fold
@@ -156,11 +160,12 @@ def evaluate_command(
         from rap.commands.train import progress_bar
 
         bar, on_step = progress_bar(console)
-        with bar:
+        with flags("max_rows"), bar:
             folds = cross_validate(specs, functools.partial(sequential_folds, on_step=on_step),
                                    on_fold)
     else:
-        folds = cross_validate(specs, runner, on_fold)
+        with flags("max_rows"):
+            folds = cross_validate(specs, runner, on_fold)
     notes = {"dataset": str(Path(dataset).resolve()), "threshold": threshold, "epochs": epochs,
              "batch size": batch_size, "seed": seed, "run": how, "recipe": recipe,
              "model": describe(model_config, config),

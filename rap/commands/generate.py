@@ -7,7 +7,8 @@
 drawn per seed), and ``rap-farm generate list`` to print the families with their options.
 
 Family option values are read by the registry (``Option.parse``): a bad value is one line on
-stderr and exit status 2 (``InputError``), never a traceback.
+stderr naming the family and the flag (the registry names the option: ``rap.commands._flags``) and
+exit status 2, never a traceback.
 """
 
 from __future__ import annotations
@@ -60,6 +61,7 @@ def _family_command(gen: typer.Typer, family) -> None:
         ..., "-o", "--output", help="Output JSON file.")))
 
     def command(**values):
+        from rap.commands._flags import flags
         from rap.geometry.families import generate
 
         seed = values.pop("seed")
@@ -68,9 +70,11 @@ def _family_command(gen: typer.Typer, family) -> None:
             seed = int(seed)
         except ValueError:
             raise InputError(f"{family.name}: --seed {seed!r}: must be an integer") from None
-        opts = {o.name: o.parse(family.name, values[o.name]) for o in family.options
-                if values.get(o.name) is not None}
-        _write(generate(family.name, seed, **opts), out)
+        with flags("seed", *(o.name for o in family.options), prefix=f"{family.name}: "):
+            opts = {o.name: o.parse(values[o.name]) for o in family.options
+                    if values.get(o.name) is not None}
+            asm = generate(family.name, seed, **opts)
+        _write(asm, out)
 
     command.__signature__ = inspect.Signature(params)
     command.__annotations__ = {p.name: p.annotation for p in params}

@@ -60,6 +60,7 @@ def label(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Label operations (simulated success rate + start/goal images) into a Parquet dataset."""
+    from rap.commands._flags import flags
     from rap.enumerate import MODES
     from rap.errors import InputError
 
@@ -89,11 +90,12 @@ def label(
         flush_rows=flush_rows, flush_seconds=flush_seconds, start_timeout_s=start_timeout,
         progress=not quiet and sys.stderr.isatty(),
         command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]))
-    plan = driver.prepare(cfg)
+    with flags(limit="--max-ops-per-assembly"):  # TooManyOperations: uncapped, too large
+        plan = driver.prepare(cfg)
     typer.echo(f"{plan.total_text} operations selected in {len(plan.assemblies)} assemblies "
                f"({plan.existing_rows} rows already in {out}); labelling what is missing", err=True)
     summary = driver.run_label(cfg, plan)
-    typer.echo(driver.format_summary(summary))
+    typer.echo(driver.format_summary(summary, no_limit="--max-ops-per-assembly 0"))
     if summary.failed:
         from rap.farm.pool import FarmError
 

@@ -205,18 +205,22 @@ def _check_server_settings(settings: dict, options: dict) -> None:
 def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, server: str, token,
                      console):
     """Step 2, with ``--server``: the service plans; the method's options travel with the
-    request."""
+    request. The client's errors name the parameter ``server``: here, the flag."""
     from rap.client import ServiceError, plan_body, post_plan
+    from rap.commands._flags import flags
     from rap.plan.result import PlanResult
 
     sent = {o.name: options[o.name] for o in METHODS[method].declared() if o.service and o.cli}
     body = plan_body(assembly, method, seed, sent)
-    with console.status(f"planning {asm.name} with {method} at {server} ..."):
-        doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
+    with flags("server"), console.status(f"planning {asm.name} with {method} at {server} ..."):
+        try:
+            doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
+        except ServiceError as exc:
+            raise ServiceError(server, exc.reason, name="--server") from None
     try:
         return PlanResult.from_json(doc, **details)
     except ValueError as exc:
-        raise ServiceError(f"--server {server}: {exc}") from None
+        raise ServiceError(server, str(exc), name="--server") from None
 
 
 def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings: dict, console,

@@ -26,6 +26,7 @@ def score_command(
     """Accuracy, per-class accuracy, ECE and the noise ceiling of MODEL on DATASET, per assembly
     (or family) and overall."""
     from rap.commands._console import console as make_console
+    from rap.commands._flags import flags
     from rap.errors import InputError
     from rap.model.evaluate import score_checkpoint
 
@@ -34,7 +35,9 @@ def score_command(
     from rap.commands.check import warn_duplicates
 
     warn_duplicates(dataset)  # each key is scored once
-    rows = score_checkpoint(model, dataset, by=by, device=device, only=only or None, mirror=mirror)
+    with flags("device"):
+        rows = score_checkpoint(model, dataset, by=by, device=device, only=only or None,
+                                mirror=mirror)
     if not rows:
         raise InputError(f"{dataset}: no rows" + (f" of {', '.join(only)}" if only else ""))
     from rich.table import Table

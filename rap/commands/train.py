@@ -113,6 +113,7 @@ def train_command(
 ):
     """Train the robustness CNN with a recipe (default 'robust') and save a checkpoint."""
     from rap.commands._console import console as make_console
+    from rap.commands._flags import flags
 
     from rap.model.train import train
 
@@ -136,7 +137,7 @@ def train_command(
     import sys
 
     try:
-        with bar:
+        with flags("holdout", "holdout_family", "init", "max_rows", "device"), bar:
             result = train(dataset, holdout=holdout, holdout_family=holdout_family,
                            model_config=model_config, config=config, on_step=on_step,
                            command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]),

@@ -271,8 +271,9 @@ def count_rows(summary: LabelSummary, table: pa.Table) -> None:
         summary.hist[b] += int(n)
 
 
-def format_summary(s: LabelSummary) -> str:
-    """A plain-text summary: operations, rate, time, nodes, score histogram."""
+def format_summary(s: LabelSummary, no_limit: str = "no limit") -> str:
+    """A plain-text summary: operations, rate, time, nodes, score histogram (``no_limit``: how a
+    short sample's line says to label every operation, ``Shortfall.describe``)."""
     lines = [
         f"dataset      {s.out}",
         f"operations   {s.total} selected, {s.existing} already present, {s.labelled} labelled now"
@@ -295,7 +296,7 @@ def format_summary(s: LabelSummary) -> str:
     if s.peak_rss_mib:
         lines.append(f"driver       peak RSS {s.peak_rss_mib:.0f} MiB")
     for name, short in sorted(s.short.items()):
-        lines.append(f"short        {name}: {short.describe()}")
+        lines.append(f"short        {name}: {short.describe(no_limit)}")
     if s.dataset_duplicates:
         lines.append(f"duplicates   {s.dataset_duplicates} rows of the dataset repeat a key stored "
                      f"before them (readers use each key's first row); this run added none")

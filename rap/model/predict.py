@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from rap.errors import InputError
+from rap.errors import ParameterError
 from rap.model import heads
 from rap.model.checkpoint import Checkpoint, load_checkpoint
 from rap.model.cnn import RobustnessCNN
@@ -29,16 +29,17 @@ __all__ = ["Predictor", "batch_outputs", "batch_prob_high", "resolve_device"]
 
 
 def resolve_device(name: str | torch.device = "auto") -> torch.device:
-    """``auto``: CUDA when present, else CPU; ``cpu``; ``cuda`` (InputError when absent)."""
+    """``auto``: CUDA when present, else CPU; ``cpu``; ``cuda``. ``ParameterError`` (parameter
+    ``device``) for CUDA when absent and for a name torch does not know."""
     name = str(name)
     if name == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
     if name.startswith("cuda") and not torch.cuda.is_available():
-        raise InputError("--device cuda: no CUDA device is available")
+        raise ParameterError("device", name, "no CUDA device is available", quote=False)
     try:
         return torch.device(name)
     except RuntimeError:
-        raise InputError(f"unknown device {name!r} (auto, cpu or cuda)") from None
+        raise ParameterError("device", name, "unknown device (auto, cpu or cuda)") from None
 
 
 CPU_CHUNK = 64  # images per forward pass on the CPU: a bigger batch's activations overflow the

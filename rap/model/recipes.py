@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import fields, replace
 
-from rap.errors import InputError
+from rap.errors import InputError, ParameterError
 from rap.model.cnn import ModelConfig
 from rap.model.train import TrainConfig
 
@@ -30,9 +30,10 @@ DEFAULT_RECIPE = "robust"
 
 
 def recipe(name: str, **overrides) -> tuple[ModelConfig, TrainConfig]:
-    """The recipe's (ModelConfig, TrainConfig) with ``overrides`` applied (None values skipped)."""
+    """The recipe's (ModelConfig, TrainConfig) with ``overrides`` applied (None values skipped);
+    ``ParameterError`` (parameter ``recipe``) for a name not in ``RECIPES``."""
     if name not in RECIPES:
-        raise InputError(f"--recipe {name!r}: one of {', '.join(RECIPES)}")
+        raise ParameterError("recipe", name, f"one of {', '.join(RECIPES)}")
     model, train = RECIPES[name]
     mf = {f.name for f in fields(ModelConfig)}
     tf = {f.name for f in fields(TrainConfig)}

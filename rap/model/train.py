@@ -40,7 +40,7 @@ import torch
 
 from rap import __version__
 from rap.dataset import count_rows
-from rap.errors import InputError
+from rap.errors import InputError, ParameterError
 from rap.model import heads
 from rap.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from rap.model.cnn import ModelConfig, RobustnessCNN
@@ -145,8 +145,12 @@ def train(root: str | Path, *, holdout: str | None = None, holdout_family: str |
     ``holdout_family``; report metrics on what was held out.
 
     ``init``: start from this checkpoint's weights instead of a random initialisation (fine-tuning
-    or training longer); its architecture must be ``model_config``'s (else ``InputError``). Its
-    path and data fingerprint go into the provenance (``training["init"]``).
+    or training longer); its architecture must be ``model_config``'s. Its path and data
+    fingerprint go into the provenance (``training["init"]``).
+
+    A value that cannot be used raises ``ParameterError`` naming its parameter: ``holdout`` or
+    ``holdout_family`` not in the dataset, ``init`` of another architecture, ``config``'s
+    ``max_rows`` on a dataset too large for memory, ``device`` ``cuda`` without CUDA.
 
     ``resume``: a file for the run's epoch state (``rap.model.resume``), written after every
     epoch; a state there from this same run (same recipe, network, rows, hold-out, ``init``) is
@@ -314,13 +318,15 @@ def _train_epoch(model: RobustnessCNN, opt, data, rng: np.random.Generator, w: t
 
 # -- provenance ----------------------------------------------------------------------------------
 def _init_checkpoint(path: str | Path, model_config: ModelConfig) -> Checkpoint:
-    """The checkpoint ``train(init=path)`` starts from; ``InputError`` for another architecture."""
+    """The checkpoint ``train(init=path)`` starts from; ``ParameterError`` (parameter ``init``)
+    for another architecture."""
     ckpt = load_checkpoint(path)
     if ckpt.config != model_config:
         theirs = ckpt.config.to_dict()
         diff = sorted(k for k, v in model_config.to_dict().items() if theirs.get(k) != v)
-        raise InputError(f"--init {path}: its network differs from this recipe's in "
-                         f"{', '.join(diff)} (choose the recipe and options it was trained with)")
+        raise ParameterError("init", Path(path), f"its network differs from this recipe's in "
+                             f"{', '.join(diff)} (choose the recipe and options it was trained "
+                             f"with)")
     return ckpt
 
 

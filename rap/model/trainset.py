@@ -4,7 +4,7 @@ The first steps of ``rap.model.train.train``, over plain values:
 
 * ``in_memory_store``: the whole dataset read into memory (a ``RowStore``) when it fits in the
   memory budget, else None (the rows are streamed);
-* ``check_holdouts``: the held-out assembly or family must be in the dataset (``InputError``);
+* ``check_holdouts``: the held-out assembly or family must be in the dataset (``ParameterError``);
 * ``training_selection``: the rows without what is held out, and the calibration assemblies
   (``split_validation``: seeded, by count of assemblies or by rows) taken out too;
 * ``with_network_inputs``: the channels of the network's view rendered and its geometric
@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 
 from rap.dataset import read_table
-from rap.errors import InputError
+from rap.errors import InputError, ParameterError
 from rap.model.cnn import ModelConfig
 from rap.model.data import (InMemoryBatches, RowStore, Selection, assembly_summary, make_batches,
                             select)
@@ -79,8 +79,8 @@ def split_validation(names: list[str], fraction: float, seed: int,
 def in_memory_store(root: str, store: RowStore | None, max_memory_mb: float,
                     max_rows: int = 0) -> RowStore | None:
     """``store``, else the whole dataset read into memory when it fits in ``max_memory_mb`` (one
-    read, index-based selections), else None (streamed; ``InputError`` when ``max_rows`` asks for
-    a sample, which needs the rows in memory)."""
+    read, index-based selections), else None (streamed; ``ParameterError`` (parameter
+    ``max_rows``) when ``max_rows`` asks for a sample, which needs the rows in memory)."""
     if store is None and Path(root).is_dir():
         from rap.dataset import IMAGE_BYTES
 
@@ -88,14 +88,15 @@ def in_memory_store(root: str, store: RowStore | None, max_memory_mb: float,
         if n_all * (IMAGE_BYTES + 256) <= max_memory_mb * 2 ** 20:
             store = RowStore(root)
         elif max_rows:
-            raise InputError(f"--max-rows needs the dataset in memory ({n_all} rows exceed "
-                             f"max_memory_mb {max_memory_mb:.0f})")
+            raise ParameterError("max_rows", max_rows, f"needs the dataset in memory ({n_all} rows "
+                                 f"exceed max_memory_mb {max_memory_mb:.0f})")
     return store
 
 
 def check_holdouts(root: str, store: RowStore | None, holdout: str | None,
                     holdout_family: str | None) -> None:
-    """``InputError`` for a held-out assembly or family that the dataset does not have."""
+    """``ParameterError`` (parameter ``holdout`` or ``holdout_family``) for a held-out assembly or
+    family that the dataset does not have."""
     if store is not None:
         names = sorted(set(store.assembly.tolist()))
         families = sorted(set(store.family.tolist()))
@@ -103,11 +104,11 @@ def check_holdouts(root: str, store: RowStore | None, holdout: str | None,
         names = dataset_assemblies(root)
         families = list(dataset_families(root)) if holdout_family else []
     if holdout is not None and holdout not in names:
-        raise InputError(f"--holdout {holdout}: no such assembly in {root} "
-                         f"(has: {', '.join(names)})")
+        raise ParameterError("holdout", holdout, f"no such assembly in {root} "
+                             f"(has: {', '.join(names)})", quote=False)
     if holdout_family is not None and holdout_family not in families:
-        raise InputError(f"--holdout-family {holdout_family}: no such family in {root} "
-                         f"(has: {', '.join(families)})")
+        raise ParameterError("holdout_family", holdout_family, f"no such family in {root} "
+                             f"(has: {', '.join(families)})", quote=False)
 
 
 def training_selection(root: str, store: RowStore | None, holdout: str | None,

@@ -115,8 +115,10 @@ def test_bad_input_one_line_exit_2_nothing_written(case, tmp_path, existing, cap
     assert exc.value.code == 2, err
     assert len(err.splitlines()) == 1 and err.startswith("rap-farm: error:"), err
     assert needle in err, err
-    if case == "uncapped beyond the budget":  # the refusal names the file and the way out
-        assert "grid6.json" in err and "--max-ops-per-assembly" in err
+    if case == "uncapped beyond the budget":  # the file and the way out, by the command's flag
+        assert err == (f"rap-farm: error: {tmp_path / 'grid6.json'}: more than 100,000 operations "
+                       f"(counting stopped there); label a seeded sample with "
+                       f"--max-ops-per-assembly K")
     assert snapshot(tmp_path) == before_all  # nothing created, nothing changed
     assert not (tmp_path / "o").exists()
 

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from rap.assembly import Assembly
 from rap.io import load_assembly
-from rap.errors import InputError
+from rap.errors import InputError, ParameterError
 from rap.geometry.andor import decomposition
 from rap.geometry.families import DEFAULT_PARTS, FAMILIES, assembly_name, family_table, generate, family_rng
 from rap.geometry.families.base import make_part, shared_edge, socket_profile
@@ -116,7 +116,8 @@ def test_explicit_options(name, options, parts):
 @pytest.mark.parametrize("name", NAMES)
 def test_option_extremes(name):
     """Every option at its lowest and highest value (the others drawn) builds a verified
-    assembly (``generate`` verifies), or a one-line InputError for a combination it rejects."""
+    assembly (``generate`` verifies), or for a combination it rejects a one-line ParameterError
+    naming one of the family's options, or a one-line InputError naming the family."""
     fam = FAMILIES[name]
     for o in fam.options:
         for v in (o.choices if o.choices else (o.low, o.high)):
@@ -125,25 +126,40 @@ def test_option_extremes(name):
                 continue
             try:
                 generate(name, 0, **{o.name: v})
+            except ParameterError as exc:
+                assert "\n" not in str(exc) and exc.parameter in {p.name for p in fam.options}
+                assert str(exc).startswith(f"{exc.parameter} ")
             except InputError as exc:
                 assert "\n" not in str(exc) and str(exc).startswith(f"{name}: ")
+
+
+SHAPES = ", ".join(FAMILIES["knobs"].option("shape").choices)
+BAD_VALUES = [  # (family, seed, options), the parameter named, the library's message
+    (("wall", 0, {"rows": 0}), "rows", "rows 0: must be between 1 and 20"),
+    (("knobs", 0, {"shape": "dovetail"}), "shape", f"shape 'dovetail': choose one of {SHAPES}"),
+    (("wall", 0, {"rows": "4"}), "rows", "rows '4': must be an integer"),
+    (("wall", 0, {"half": 6, "gap": 5}), "gap",
+     "gap 5: must be at most half - 2 (4), so that half bricks keep a width"),
+    (("fan", 0, {"layout": "pie", "triangles": 2}), "triangles",
+     "triangles 2: a pie needs at least 3"),
+    (("wall", -1, {}), "seed", "seed -1: must be a non-negative integer"),
+]
+
+
+@pytest.mark.parametrize("call, parameter, message", BAD_VALUES)
+def test_bad_values_name_the_parameter(call, parameter, message):
+    """The library speaks of its parameters (``generate``'s keywords), never of flags."""
+    family, seed, options = call
+    with pytest.raises(ParameterError) as err:
+        generate(family, seed, **options)
+    assert err.value.parameter == parameter and str(err.value) == message
 
 
 def test_bad_options():
     with pytest.raises(InputError, match="no assembly family 'castle'"):
         generate("castle", 0)
-    with pytest.raises(InputError, match="wall: --rows 0: must be between 1 and 20"):
-        generate("wall", 0, rows=0)
     with pytest.raises(InputError, match="no option 'towers'"):
         generate("wall", 0, towers=2)
-    with pytest.raises(InputError, match="choose one of"):
-        generate("knobs", 0, shape="dovetail")
-    with pytest.raises(InputError, match="must be an integer"):
-        generate("wall", 0, rows="4")
-    with pytest.raises(InputError, match="--gap 5: must be at most --half minus 2"):
-        generate("wall", 0, half=6, gap=5)
-    with pytest.raises(InputError, match="seed"):
-        generate("wall", -1)
 
 
 def test_large_instances():
@@ -226,13 +242,18 @@ def test_cli_options_and_list(tmp_path, run_cli):
 @pytest.mark.parametrize("args,message", [
     (["wall", "--rows", "0"], "wall: --rows 0: must be between 1 and 20"),
     (["wall", "--rows", "many"], "wall: --rows 'many': must be an integer"),
-    (["knobs", "--shape", "dovetail"], "knobs: --shape 'dovetail': choose one of"),
+    (["knobs", "--shape", "dovetail"], f"knobs: --shape 'dovetail': choose one of {SHAPES}"),
+    (["knobs", "--knob-pct", "1000"], "knobs: --knob-pct 1000: must be between "
+     f"{FAMILIES['knobs'].option('knob_pct').low} and {FAMILIES['knobs'].option('knob_pct').high}"),
     (["fan", "--seed", "x"], "fan: --seed 'x': must be an integer"),
-    (["wall", "--half", "4", "--gap", "3"], "wall: --gap 3: must be at most --half minus 2"),
+    (["fan", "--seed", "-1"], "fan: --seed -1: must be a non-negative integer"),
+    (["wall", "--half", "4", "--gap", "3"],
+     "wall: --gap 3: must be at most half - 2 (2), so that half bricks keep a width"),
 ])
 def test_cli_bad_option(tmp_path, run_cli, args, message):
+    """The command names the family and the flag where the library names the parameter."""
     out = tmp_path / "bad.json"
     code, _, err = run_cli("generate", *args, "-o", out)
     assert code == 2
-    assert message in err and err.strip().count("\n") == 0 and "Traceback" not in err
+    assert err == f"rap-farm: error: {message}\n"
     assert not out.exists()

@@ -88,10 +88,16 @@ def test_a_sample_that_stops_short_says_why_with_the_counts(tmp_path):
     assert (short.selected, short.asked, short.space) == (1134, 3000, 20796)
     assert short.reason.startswith("the sampler stopped after 64 random disassembly trees in a row "
                                    "brought no new operation")
-    assert "--max-ops-per-assembly 0 labels all 20,796" in short.reason
+    assert short.reason.endswith("the rest of the space lies in subassemblies its trees reach "
+                                 "rarely")
     line = [x for x in format_summary(summary).splitlines() if x.startswith("short")]
     assert line == [f"short        pentomino-6x10: 1,134 of 3,000 operations asked (a space of "
-                    f"20,796): {short.reason}"]
+                    f"20,796): {short.reason} (no limit labels all 20,796)"]
+    # `rap-farm label` says how with its flag
+    line = [x for x in format_summary(summary, no_limit="--max-ops-per-assembly 0").splitlines()
+            if x.startswith("short")]
+    assert line == [f"short        pentomino-6x10: 1,134 of 3,000 operations asked (a space of "
+                    f"20,796): {short.reason} (--max-ops-per-assembly 0 labels all 20,796)"]
 
 
 def test_samples_that_reach_their_total_say_nothing(tmp_path):
@@ -112,6 +118,15 @@ def test_samples_that_reach_their_total_say_nothing(tmp_path):
 def test_shortfall_text(space, why):
     s = Shortfall(853, 3000, space, "because")
     assert s.describe() == f"853 of 3,000 operations asked ({why}): because"
+    assert s.describe("--max-ops-per-assembly 0") == s.describe()  # nothing more to label
+
+
+def test_shortfall_says_how_to_label_a_larger_counted_space():
+    s = Shortfall(853, 3000, 20796, "because")
+    assert s.describe() == ("853 of 3,000 operations asked (a space of 20,796): because (no limit "
+                            "labels all 20,796)")
+    assert s.describe("--max-ops-per-assembly 0").endswith(
+        "because (--max-ops-per-assembly 0 labels all 20,796)")
 
 
 def test_an_exhaustive_stream_that_ends_early_says_so():

@@ -1,5 +1,7 @@
 """`rap-farm train` and `rap-farm evaluate --no-ray` end to end on a tiny synthetic dataset."""
 
+from pathlib import Path
+
 import pytest
 from typer.testing import CliRunner
 
@@ -69,6 +71,39 @@ def test_cli_errors_are_one_line_with_status_2(argv, message, tiny_dataset, tmp_
     err = capsys.readouterr().err.strip()
     assert exc.value.code == 2 and message in err and "\n" not in err
     assert not (tmp_path / "m.pt").exists()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["train", "{tiny}", "--holdout", "nope"],
+     "--holdout nope: no such assembly in {root} (has: alpha, beta, gamma)"),
+    (["train", "{tiny}", "--holdout-family", "castles"],
+     "--holdout-family castles: no such family in {root} (has: custom)"),
+    (["train", "{tiny}", "--device", "tpu"], "--device 'tpu': unknown device (auto, cpu or cuda)"),
+    (["score", "{tiny}/m.pt", "{tiny}", "--device", "tpu"],
+     "--device 'tpu': unknown device (auto, cpu or cuda)"),
+    (["train", "{tiny}", "--recipe", "fast"], "--recipe 'fast': one of paper, robust"),
+    (["evaluate", "{tiny}", "--recipe", "fast"], "--recipe 'fast': one of paper, robust"),
+    (["train", "{tiny}", "--init", "rap/data/default_model.pt", "--recipe", "paper"],
+     "--init rap/data/default_model.pt: its network differs from this recipe's in head, norm "
+     "(choose the recipe and options it was trained with)"),
+])
+def test_cli_names_the_flag_where_the_library_names_the_parameter(argv, message, tiny_dataset,
+                                                                  tmp_path, capsys):
+    """``rap.model`` raises ``ParameterError`` naming ``holdout``, ``device``, ``recipe``,
+    ``init``: the commands show the same line with the flag."""
+    if argv[0] == "score":  # a checkpoint to score
+        model = tmp_path / "m.pt"
+        main(["train", str(tiny_dataset), "--out", str(model), "--epochs", "1", "--device", "cpu"])
+        capsys.readouterr()
+        argv = [str(model) if a == "{tiny}/m.pt" else a for a in argv]
+    argv = [a.format(tiny=tiny_dataset) for a in argv]
+    if argv[0] != "score":
+        argv += ["--out", str(tmp_path / "out.pt"), "--epochs", "1"]
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    err = capsys.readouterr().err
+    root = Path(tiny_dataset).resolve()
+    assert exc.value.code == 2 and err == f"rap-farm: error: {message.format(root=root)}\n"
 
 
 def test_score_command_prints_and_writes_per_family(family_dataset, tmp_path):

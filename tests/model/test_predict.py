@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from model_fixtures import FAST_TRAIN, TINY_MODEL, synthetic_image
-from rap.model.predict import Predictor
+from rap.errors import ParameterError
+from rap.model.predict import Predictor, resolve_device
 from rap.model.train import train
 
 
@@ -50,3 +51,17 @@ def test_cpu_batches_are_chunked_without_changing_outputs(predictor, monkeypatch
                         lambda x, d=None: calls.append(len(x)) or forward(x, d))
     np.testing.assert_allclose(predictor.outputs(images), whole, atol=1e-5)
     assert calls == [4, 4, 3]
+
+
+def test_devices_it_cannot_use_name_the_parameter(monkeypatch):
+    """The library speaks of ``device`` (``rap-farm train`` and ``score`` of --device)."""
+    with pytest.raises(ParameterError) as err:
+        resolve_device("tpu")
+    assert (err.value.parameter, str(err.value)) == (
+        "device", "device 'tpu': unknown device (auto, cpu or cuda)")
+    monkeypatch.setattr("torch.cuda.is_available", lambda: False)
+    with pytest.raises(ParameterError) as err:
+        resolve_device("cuda")
+    assert (err.value.parameter, str(err.value)) == (
+        "device", "device cuda: no CUDA device is available")
+    assert resolve_device("auto").type == "cpu"

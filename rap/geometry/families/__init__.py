@@ -25,7 +25,7 @@ import hashlib
 import numpy as np
 
 from rap.assembly import Assembly
-from rap.errors import InputError
+from rap.errors import InputError, ParameterError
 from rap.geometry.families.base import DEFAULT_PARTS, Family, FamilyError, Option, verify
 from rap.geometry.families.fans import FAN
 from rap.geometry.families.hub import HUB
@@ -61,11 +61,12 @@ def assembly_name(family: str, seed: int, **options) -> str:
 def generate(family: str, seed: int, **options) -> Assembly:
     """The verified assembly of ``family`` for ``seed`` (``family_rng(family, seed)``).
 
-    Unknown families or options, or option values out of range, raise ``InputError``.
+    Unknown families or options raise ``InputError``; a bad ``seed`` or option value
+    ``ParameterError`` naming it (``rows 0: must be between 1 and 20``).
     """
     fam = get_family(family)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"{family}: --seed {seed!r}: must be a non-negative integer")
+        raise ParameterError("seed", seed, "must be a non-negative integer")
     return fam.make(family_rng(family, int(seed)), name=assembly_name(family, int(seed), **options),
                     **options)
 

@@ -3,9 +3,11 @@
 * ``Option``: one family option (int or choice), its default and allowed range. A default of
   ``None`` means *drawn per seed*: uniformly from the range (or the choices), so the corpus varies
   it; an explicit value fixes it. ``parse`` reads a command-line string, ``check`` validates a
-  value; both raise ``rap.errors.InputError`` (one line) naming the family and the option.
+  value; both raise ``rap.errors.ParameterError`` naming the option (``rows 0: must be between 1
+  and 20``; ``rap-farm generate`` shows ``wall: --rows 0: ...``).
 * ``Family``: name, one-line description, options, and ``build(rng, opts) -> [Part]`` over resolved
-  options. ``Family.make(rng, **options)`` resolves the options (drawn ones are redrawn, at most
+  options (``problem(opts)``: None, or the option and why the combination cannot be built).
+  ``Family.make(rng, **options)`` resolves the options (drawn ones are redrawn, at most
   ``REDRAWS`` times, until the part count is within ``DEFAULT_PARTS``; explicit ones never change),
   builds the parts and verifies the result exactly (``verify``): ``validate_assembly`` and a full
   decomposition over online NDBG partitions (``rap.geometry.andor.decomposition``). A failed verification is a
@@ -35,7 +37,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from rap.assembly import Assembly, Part
-from rap.errors import InputError
+from rap.errors import InputError, ParameterError
 
 __all__ = ["Option", "Family", "FamilyError", "DEFAULT_PARTS", "REDRAWS", "make_part", "ring_points",
            "edge_points", "shared_edge", "CONVEX_THEOREM_PARTS", "socket_profile", "mirror_profile", "verify", "IPoint"]
@@ -86,29 +88,27 @@ class Option:
         rnd = "|".join(d) if self.choices else f"{d[0]}..{d[-1]}"
         return f"{self.name}={allowed} (random {rnd})"
 
-    def check(self, family: str, value):
-        """The validated value; raises ``InputError`` naming the option."""
-        flag = f"{family}: --{self.name.replace('_', '-')}"
+    def check(self, value):
+        """The validated value; raises ``ParameterError`` naming the option."""
         if self.choices:
             if value not in self.choices:
-                raise InputError(f"{flag} {value!r}: choose one of {', '.join(self.choices)}")
+                raise ParameterError(self.name, value, f"choose one of {', '.join(self.choices)}")
             return value
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-            raise InputError(f"{flag} {value!r}: must be an integer")
+            raise ParameterError(self.name, value, "must be an integer")
         if not self.low <= value <= self.high:
-            raise InputError(f"{flag} {value}: must be between {self.low} and {self.high}")
+            raise ParameterError(self.name, value, f"must be between {self.low} and {self.high}")
         return int(value)
 
-    def parse(self, family: str, text: str):
+    def parse(self, text: str):
         """Read a command-line value (validated)."""
         if self.choices:
-            return self.check(family, text)
+            return self.check(text)
         try:
             value = int(text)
         except ValueError:
-            raise InputError(f"{family}: --{self.name.replace('_', '-')} {text!r}: must be an "
-                             "integer") from None
-        return self.check(family, value)
+            raise ParameterError(self.name, text, "must be an integer") from None
+        return self.check(value)
 
     def draw(self, rng: np.random.Generator):
         d = self.drawn
@@ -125,8 +125,8 @@ class Family:
     build: Callable[[np.random.Generator, dict], Sequence[Part]] = field(repr=False)
     count: Callable[[dict], int] = field(repr=False)  # exact part count of resolved options
     count_options: tuple[str, ...] = ()  # the options ``count`` depends on
-    problem: Callable[[dict], str | None] = field(default=lambda o: None, repr=False)
-    # ``problem(opts)``: why resolved options cannot be built together (None: they can)
+    problem: Callable[[dict], tuple[str, str] | None] = field(default=lambda o: None, repr=False)
+    # ``problem(opts)``: (option, why) resolved options cannot be built together (None: they can)
 
     def option(self, name: str) -> Option:
         for o in self.options:
@@ -137,15 +137,15 @@ class Family:
 
     def check_options(self, options: dict) -> dict:
         """Validated explicit options (None values are left out: drawn)."""
-        return {k: self.option(k).check(self.name, v) for k, v in options.items() if v is not None}
+        return {k: self.option(k).check(v) for k, v in options.items() if v is not None}
 
     def resolve(self, rng: np.random.Generator, **options) -> dict:
         """Every option's value: explicit ones validated, the others drawn from ``rng`` (in option
         order). Drawn values are redrawn (at most ``REDRAWS`` times) while ``problem`` objects to
-        the combination or the part count is outside ``DEFAULT_PARTS``; ``InputError`` when no
-        draw suits the explicit options."""
+        the combination or the part count is outside ``DEFAULT_PARTS``; ``ParameterError`` (the
+        option ``problem`` names) when no draw suits the explicit options."""
         given = self.check_options(options)
-        best, best_miss, why = None, None, None
+        best, best_miss, why, refused = None, None, None, {}
         for _ in range(REDRAWS):
             opts = {}
             for o in self.options:
@@ -157,6 +157,7 @@ class Family:
                     opts[o.name] = o.draw(rng)
             why = self.problem(opts)
             if why is not None:
+                refused = opts
                 continue
             n = self.count(opts)
             miss = max(DEFAULT_PARTS[0] - n, n - DEFAULT_PARTS[1], 0)
@@ -165,7 +166,8 @@ class Family:
             if best_miss is None or miss < best_miss:
                 best, best_miss = opts, miss
         if best is None:
-            raise InputError(f"{self.name}: {why}")
+            name, reason = why
+            raise ParameterError(name, refused[name], reason)
         return best
 
     def part_range(self, **options) -> tuple[int, int]:

@@ -82,5 +82,5 @@ FAN = Family(
      Option("jitter", "Largest change of an outer vertex's radius.", 0, 20, draw_low=0,
             draw_high=6)),
     _fan, _count, ("triangles", "layout"),
-    lambda o: (f"--triangles {o['triangles']}: a pie needs at least 3"
+    lambda o: (("triangles", "a pie needs at least 3")
                if o["layout"] == "pie" and o["triangles"] < 3 else None))

@@ -12,7 +12,8 @@ Not interlocked by verification: a draft is rejected when a piece would have a h
 more than ``MAX_VERTICES`` vertices, or when ``rap.geometry.andor.decomposition`` finds no full
 decomposition over online NDBG partitions (rectangles alone in an open tray always pass: they
 leave upward one at a time, by Guibas and Yao's theorem for convex parts). At most ``DRAFTS``
-drafts, then ``InputError`` (options that leave no room). Cost: O(parts) per draft plus one NDBG
+drafts, then ``InputError`` (``ParameterError`` naming ``ells`` for packing: options that leave
+no room). Cost: O(parts) per draft plus one NDBG
 (about O(n^2)) per checked draft; typically one to a few drafts.
 """
 
@@ -23,7 +24,7 @@ import math
 import numpy as np
 
 from rap.assembly import Assembly
-from rap.errors import InputError
+from rap.errors import InputError, ParameterError
 from rap.geometry.families.base import Family, Option, make_part, ring_points
 
 __all__ = ["PACKING", "POLYOMINO", "union_ring", "MAX_VERTICES", "DRAFTS"]
@@ -141,8 +142,8 @@ def _packing(rng: np.random.Generator, o: dict) -> list:
                 groups, merged = trial, merged + 1
         if merged == ells:
             return [tray] + _pieces(sorted(groups, key=lambda g: (g[0][1], g[0][0])))
-    raise InputError(f"packing: no packing with {ells} L-shapes among {n_parts} parts found in "
-                     f"{DRAFTS} drafts; try fewer --ells")
+    raise ParameterError("ells", ells, f"no packing with {ells} L-shapes among {n_parts} parts "
+                                       f"found in {DRAFTS} drafts; try fewer")
 
 
 def _pieces(groups) -> list:
@@ -209,7 +210,7 @@ PACKING = Family(
      Option("clearance", "Slack between the contents and one wall of the tray.", 0, 6,
             draw_low=0, draw_high=3)),
     _packing, lambda o: o["parts"], ("parts",),
-    lambda o: (f"--ells {o['ells']}: needs at least {max(3, o['ells'] + 1)} parts"
+    lambda o: (("ells", f"needs at least {max(3, o['ells'] + 1)} parts")
                if o["ells"] and o["parts"] < max(3, o["ells"] + 1) else None))
 
 POLYOMINO = Family(
@@ -219,5 +220,5 @@ POLYOMINO = Family(
      Option("pieces", "Polyominoes.", 2, 40, draw_low=4, draw_high=10),
      Option("cell", "Side of a cell.", 4, 24, draw_low=10, draw_high=14)),
     _polyomino, lambda o: o["pieces"], ("pieces",),
-    lambda o: (f"--pieces {o['pieces']}: more than the {o['cols'] * o['rows']} cells (give --cols "
-               "and --rows)" if o["pieces"] > o["cols"] * o["rows"] else None))
+    lambda o: (("pieces", f"more than the {o['cols'] * o['rows']} cells (give cols and rows)")
+               if o["pieces"] > o["cols"] * o["rows"] else None))

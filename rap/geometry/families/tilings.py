@@ -100,10 +100,10 @@ def _wall_count(o: dict) -> int:
     return o["rows"] * o["bricks"] + o["rows"] // 2
 
 
-def _wall_problem(o: dict) -> str | None:
+def _wall_problem(o: dict) -> tuple[str, str] | None:
     if o["gap"] > o["half"] - 2:
-        return (f"--gap {o['gap']}: must be at most --half minus 2 ({o['half'] - 2}), so that half "
-                "bricks keep a width")
+        return ("gap", f"must be at most half - 2 ({o['half'] - 2}), so that half bricks keep a "
+                "width")
     return None
 
 
