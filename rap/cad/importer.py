@@ -34,7 +34,7 @@ from rap.cad.loops import join_loops
 from rap.cad.parts import ExactPart, group_parts
 from rap.cad.rings import exact_rings
 from rap.cad.snap import Grid
-from rap.errors import InputError
+from rap.errors import ParameterError
 
 __all__ = ["ImportOptions", "ImportResult", "import_drawing", "DRAWING_SUFFIXES",
            "assembly_document"]
@@ -55,12 +55,14 @@ class ImportOptions:
     scale: float | None = None
 
     def checked(self) -> Grid:
+        """The tolerance's grid; ``ParameterError`` naming the option (``units``, ``parts``,
+        ``scale``, ``tolerance``) that cannot be used."""
         if self.units not in UNITS_MM:
-            raise InputError(f"--units {self.units!r}: choose one of {', '.join(UNITS_MM)}")
+            raise ParameterError("units", self.units, f"choose one of {', '.join(UNITS_MM)}")
         if self.parts not in PART_MODES:
-            raise InputError(f"--parts {self.parts!r}: choose loop or layer")
+            raise ParameterError("parts", self.parts, "choose loop or layer")
         if self.scale is not None and not self.scale > 0:
-            raise InputError(f"--scale {self.scale}: must be a positive number")
+            raise ParameterError("scale", self.scale, "must be a positive number")
         return Grid.parse(self.tolerance)
 
 

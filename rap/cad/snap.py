@@ -24,7 +24,7 @@ from decimal import Decimal, InvalidOperation
 from fractions import Fraction
 
 from rap.assembly import LIMITS
-from rap.errors import InputError
+from rap.errors import ParameterError
 
 __all__ = ["Grid", "TOLERANCE_BOUNDS"]
 
@@ -40,21 +40,21 @@ class Grid:
 
     @classmethod
     def parse(cls, tolerance: str | Decimal | float | int) -> "Grid":
-        """The grid of a tolerance; ``InputError`` (one line) for a bad one."""
+        """The grid of a tolerance; ``ParameterError`` (parameter ``tolerance``) for a bad one."""
         text = repr(tolerance) if isinstance(tolerance, float) else str(tolerance)
         try:
             step = Decimal(text.strip())
         except (InvalidOperation, ValueError):
-            raise InputError(f"--tolerance {text!r}: not a number") from None
+            raise ParameterError("tolerance", text, "not a number") from None
         lo, hi = TOLERANCE_BOUNDS
         if not step.is_finite() or step <= 0:
-            raise InputError(f"--tolerance {text}: must be a positive number")
+            raise ParameterError("tolerance", text, "must be a positive number", quote=False)
         if step < lo or step.normalize().as_tuple().exponent < -LIMITS.max_decimal_places:
-            raise InputError(f"--tolerance {text}: finer than the coordinate grid 1e-6 of "
-                             f"assembly files (at most {LIMITS.max_decimal_places} digits after "
-                             f"the point)")
+            raise ParameterError("tolerance", text, f"finer than the coordinate grid 1e-6 of "
+                                 f"assembly files (at most {LIMITS.max_decimal_places} digits "
+                                 f"after the point)", quote=False)
         if step > hi:
-            raise InputError(f"--tolerance {text}: coarser than {hi} units")
+            raise ParameterError("tolerance", text, f"coarser than {hi} units", quote=False)
         return cls(step.normalize())
 
     @property

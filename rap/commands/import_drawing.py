@@ -73,11 +73,13 @@ def import_command(
 ) -> None:
     """Import a DXF or SVG drawing of planar parts as an exact, validated assembly file."""
     from rap.cad import ImportOptions, import_drawing
+    from rap.commands._flags import flags
 
     if out.suffix.lower() != ".json":
         raise InputError(f"--out {out}: must end in .json")
     options = ImportOptions(units=units, tolerance=tolerance, parts=parts, scale=scale)
-    result = import_drawing(drawing, options)
+    with flags("units", "tolerance", "parts", "scale"):  # the library names the options
+        result = import_drawing(drawing, options)
     write_assembly_json(result.assembly, out)
     typer.echo(f"wrote {out}: {result.summary()}")
 

@@ -7,16 +7,22 @@ from decimal import Decimal
 import pytest
 
 from rap.cad.snap import Grid
-from rap.errors import InputError
+from rap.errors import ParameterError
 
 
-@pytest.mark.parametrize("text,needle", [("1e-7", "finer"), ("0.0000015", "finer"),
-                                         ("0", "positive"), ("-1", "positive"), ("abc", "number"),
-                                         ("5000", "coarser")])
-def test_bad_tolerances_are_refused_in_one_line(text, needle):
-    with pytest.raises(InputError, match=needle) as e:
+FINER = "finer than the coordinate grid 1e-6 of assembly files (at most 6 digits after the point)"
+
+
+@pytest.mark.parametrize("text,message", [
+    ("1e-7", f"tolerance 1e-7: {FINER}"), ("0.0000015", f"tolerance 0.0000015: {FINER}"),
+    ("0", "tolerance 0: must be a positive number"),
+    ("-1", "tolerance -1: must be a positive number"),
+    ("abc", "tolerance 'abc': not a number"), ("5000", "tolerance 5000: coarser than 1000 units")])
+def test_bad_tolerances_are_refused_in_one_line(text, message):
+    """One line naming the parameter (``rap-farm import`` shows ``--tolerance``)."""
+    with pytest.raises(ParameterError) as e:
         Grid.parse(text)
-    assert "\n" not in str(e.value)
+    assert e.value.parameter == "tolerance" and str(e.value) == message
 
 
 def test_the_grid_is_exact():
