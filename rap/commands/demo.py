@@ -92,24 +92,22 @@ def _small_scale(console, files, assembly, out, ops, trials, epochs, seed, worke
 
 
 def _plan(path: Path, method: str, out_json: Path, picture: Path | None,
-          workers: int | None) -> tuple[dict, str, float]:
-    """One ``rap-farm plan`` run in a process of its own: (plan document, stdout, wall seconds)."""
+          workers: int | None) -> tuple[dict, str]:
+    """One ``rap-farm plan`` run in a process of its own: (plan document, what it printed)."""
     argv = [sys.executable, "-m", "rap.cli", "plan", str(path), "--method", method, "--no-cache",
             "--out", str(out_json)]
     if picture is not None:
         argv += ["--picture", str(picture)]
     if workers is not None:
         argv += ["--workers", str(workers)]
-    t = time.perf_counter()
     done = subprocess.run(argv, capture_output=True, text=True)
-    wall = time.perf_counter() - t
     if done.returncode != 0:
         from rap.errors import WorkFailedError
 
         why = (done.stderr.strip().splitlines() or ["no message"])[-1]
         raise WorkFailedError(f"demo: rap-farm plan --method {method} {path} failed "
                               f"(exit {done.returncode}): {why}")
-    return json.loads(out_json.read_text(encoding="utf-8")), done.stdout, wall
+    return json.loads(out_json.read_text(encoding="utf-8")), done.stdout + done.stderr
 
 
 def _compare(console, out: Path, workers: int | None) -> tuple[dict, dict, float]:
@@ -134,9 +132,9 @@ def _compare(console, out: Path, workers: int | None) -> tuple[dict, dict, float
     console.print("each plan is a `rap-farm plan FILE --no-cache` of its own, one after the other",
                   highlight=False)
     t = time.perf_counter()
-    search, shown, _ = _plan(path, "search", out / "plan.json", out / "storyboard.png", workers)
-    console.print(shown.rstrip("\n"), highlight=False)
-    sim, _, _ = _plan(path, "sim", out / "plan-sim.json", None, workers)
+    search, shown = _plan(path, "search", out / "plan.json", out / "storyboard.png", workers)
+    console.print(shown.rstrip("\n"), highlight=False, markup=False)
+    sim, _ = _plan(path, "sim", out / "plan-sim.json", None, workers)
     return search, sim, time.perf_counter() - t
 
 
@@ -164,7 +162,7 @@ def demo_command(
     ops: int = typer.Option(200, "--ops", min=4, help="Labelled operations per assembly."),
     trials: int = typer.Option(30, "--trials", min=1, help="Simulator trials per labelled "
                                "operation (the plans use plan's default, 100)."),
-    epochs: int = typer.Option(8, "--epochs", min=1, help="Training epochs."),
+    epochs: int = typer.Option(6, "--epochs", min=1, help="Training epochs."),
     seed: int = typer.Option(0, "--seed", help="Root seed of the labels and the training (the "
                              "plans use plan's default)."),
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors and plan "
