@@ -237,7 +237,7 @@ def prepare(cfg: LabelConfig, status: Callable[[str], None] = lambda s: None) ->
     if cfg.directions_per_range < 1:
         raise InputError(f"--directions-per-range must be >= 1, not {cfg.directions_per_range}")
     if cfg.mode not in MODES:
-        raise InputError(f"--mode must be one of {', '.join(MODES)}, not {cfg.mode!r}")
+        raise InputError(f"--space must be one of {', '.join(MODES)}, not {cfg.mode!r}")
     if not (0 <= int(cfg.seed) < 2 ** 63):
         raise InputError(f"--seed must be in [0, 2**63), not {cfg.seed}")
     if cfg.flush_rows < 1 or cfg.flush_seconds <= 0 or cfg.first_flush_seconds <= 0:

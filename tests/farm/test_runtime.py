@@ -20,11 +20,16 @@ def test_rays_default_token_notice_is_dropped_and_its_other_warnings_kept():
     handler = logging.Handler()
     handler.emit = seen.append  # type: ignore[method-assign]
     log = logging.getLogger(setup.__name__)
+    # another test's logging.config (uvicorn's, Serve's) may have disabled or raised this logger
+    was = (log.disabled, log.level)
+    log.disabled = False
+    log.setLevel(logging.INFO)
     log.addHandler(handler)
     try:
         setup._warn_token_auth_enabled()
         setup._warn_token_auth_disabled()
     finally:
         log.removeHandler(handler)
+        log.disabled, log.level = was
     assert [r.getMessage().split(".")[0] for r in seen] == [
         "Token authentication is disabled for this Ray cluster"]

@@ -59,8 +59,10 @@ def test_both_numbers_from_one_pass_equal_the_separate_calls_in_torch_and_numpy(
         np.testing.assert_array_equal(e, cnn.expected_score(problem, ops))
         order = np.argsort(e)  # binomial head: P(high) is monotone in the expected score
         assert np.all(np.diff(ph[order]) >= 0)
-    assert isinstance(torch_predict.Predictor.load(path).prob_high_and_expected(
-        *_inputs("hexagon", load_fast_predictor(path))), tuple)
+    images, d = _inputs("hexagon", load_fast_predictor(path))
+    ph, e = torch_predict.Predictor.load(path).prob_high_and_expected(images, d)
+    assert np.shape(ph) == np.shape(e) == (len(images),)  # one pair of numbers an operation
+    assert np.all((0 <= ph) & (ph <= 1)) and np.all((0 <= e) & (e <= 1))
 
 
 def test_mirror_averaging_is_the_mean_of_both_passes_in_torch_and_numpy():
