@@ -148,7 +148,8 @@ class PlannerOptions:
         """The planner (a ``rap.plan.planners.Planner``): ``planner(**options)``; a method whose
         planner is made otherwise overrides this."""
         if self.planner is None:
-            raise TypeError(f"{type(self).__name__} declares no planner class and does not override build()")
+            raise TypeError(f"{type(self).__name__} declares no planner class and does not "
+                            f"override build()")
         return self.planner(**{o.name: getattr(self, o.name) for o in self.declared()})
 
     # -- experiment method names ----------------------------------------------------------------
