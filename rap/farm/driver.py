@@ -180,7 +180,7 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
             with _Uninterruptible():
                 table = dataset_table(pa.concat_tables(buffer))
                 summary.shards += len(write_shard(out, table))
-                count_rows(summary, table)
+                tally_rows(summary, table)
                 buffer.clear()
                 buffered = 0
             if summary.first_shard_s is None:
@@ -260,7 +260,7 @@ def fresh_rows(table: pa.Table, pending: set[str]) -> pa.Table:
     return table if all(keep) else table.filter(pa.array(keep, pa.bool_()))
 
 
-def count_rows(summary: LabelSummary, table: pa.Table) -> None:
+def tally_rows(summary: LabelSummary, table: pa.Table) -> None:
     """Add committed rows to the summary: rows per node and per assembly, the score histogram."""
     summary.labelled += table.num_rows
     for column, counts in (("node", summary.nodes), ("assembly", summary.per_assembly)):
