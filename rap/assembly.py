@@ -2,8 +2,12 @@
 
 An assembly file is JSON::
 
-    {"name": "optional", "parts": [{"id": "a", "polygon": [[x, y], ...],
+    {"name": "optional", "units": "optional, e.g. mm", "parts": [{"id": "a", "polygon": [[x, y], ...],
                                     "holes": [[[x, y], ...], ...]}]}
+
+``units`` names the unit of the coordinates (``rap-farm import`` writes the drawing's output unit,
+e.g. ``"mm"``); without it ``DEFAULT_UNITS`` (``"unit"``: the drawing's units, whatever they are).
+Like the name, it is metadata: not part of the geometry hash. Plans state it (``rap.plan.execution``).
 
 Coordinates are ``fractions.Fraction`` (read from the file's decimals, never through a binary
 float), so shared edges and touching contacts stay exact. Rings are normalised: outer boundaries
@@ -45,6 +49,8 @@ __all__ = [
     "Assembly",
     "AssemblyError",
     "DEFAULT_FAMILY",
+    "DEFAULT_UNITS",
+    "check_units",
     "assembly_to_json",
     "signed_area2",
     "InputLimits",
@@ -136,6 +142,16 @@ class Part:
 
 
 DEFAULT_FAMILY = "custom"
+DEFAULT_UNITS = "unit"  # "the drawing's units": an assembly file that names none
+
+
+def check_units(units) -> str | None:
+    """None when ``units`` is a valid units name (1-16 letters, e.g. "mm", "in", "unit"), else
+    what is wrong, as text."""
+    if not isinstance(units, str) or not units.isascii() or not units.isalpha() \
+            or not 1 <= len(units) <= 16:
+        return "'units' must be a word of 1 to 16 letters, e.g. \"mm\""
+    return None
 
 
 @dataclass(frozen=True)
@@ -144,13 +160,15 @@ class Assembly:
 
     ``family`` says where the assembly comes from (a generator family of
     ``rap.geometry.families``, ``reference`` for the six shipped ones, ``custom`` otherwise); it
-    is metadata, like ``source``, and takes no part in equality or the geometry hash.
+    is metadata, like ``source``, and takes no part in equality or the geometry hash; so is
+    ``units``, the name of the coordinates' unit (``DEFAULT_UNITS`` when the file names none).
     """
 
     name: str
     parts: tuple[Part, ...]
     source: str = field(default="<memory>", compare=False)
     family: str = field(default=DEFAULT_FAMILY, compare=False)
+    units: str = field(default=DEFAULT_UNITS, compare=False)
 
     @cached_property
     def ids(self) -> tuple[str, ...]:
@@ -221,9 +239,11 @@ def _num_json(v: Fraction) -> int | float:
 def assembly_to_json(assembly: Assembly) -> dict:
     """The JSON document of an assembly (exact where coordinates have finite decimals)."""
     family = {"family": assembly.family} if assembly.family != DEFAULT_FAMILY else {}
+    units = {"units": assembly.units} if assembly.units != DEFAULT_UNITS else {}
     return {
         "name": assembly.name,
         **family,
+        **units,
         "parts": [
             {"id": p.id, "polygon": [[_num_json(x), _num_json(y)] for x, y in p.outer],
              **({"holes": [[[_num_json(x), _num_json(y)] for x, y in h] for h in p.holes]}

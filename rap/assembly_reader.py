@@ -27,8 +27,9 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
-from rap.assembly import (DEFAULT_FAMILY, LIMITS, Assembly, AssemblyError, InputLimits, Part,
-                          Point, Ring, json_error_reason, signed_area2)
+from rap.assembly import (DEFAULT_FAMILY, DEFAULT_UNITS, LIMITS, Assembly, AssemblyError,
+                          InputLimits, Part, Point, Ring, check_units, json_error_reason,
+                          signed_area2)
 
 __all__ = ["assembly_from_json", "read_assembly_json"]
 
@@ -127,6 +128,9 @@ def assembly_from_json(data: Any, source: str = "<memory>", default_name: str = 
     family = data.get("family", DEFAULT_FAMILY)
     if not isinstance(family, str) or not family or not family.replace("-", "").replace("_", "").isalnum():
         raise AssemblyError(source, None, "'family' must be a non-empty word (letters, digits, - or _)")
+    units = data.get("units", DEFAULT_UNITS)
+    if check_units(units) is not None:
+        raise AssemblyError(source, None, check_units(units))
     raw_parts = data["parts"]
     if not isinstance(raw_parts, list):
         raise AssemblyError(source, None, "'parts' must be a list")
@@ -167,7 +171,7 @@ def assembly_from_json(data: Any, source: str = "<memory>", default_name: str = 
             raise AssemblyError(source, pid, f"the assembly has more than {limits.max_vertices} "
                                              f"vertices in all; no more are read")
         parts.append(Part(pid, outer, holes))
-    return Assembly(name, tuple(parts), source, family)
+    return Assembly(name, tuple(parts), source, family, units)
 
 
 _BINARY_KINDS = ((b"\x89PNG", "a PNG image"), (b"%PDF", "a PDF document"), (b"\xff\xd8\xff", "a JPEG image"),

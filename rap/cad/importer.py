@@ -90,12 +90,14 @@ class ImportResult:
                 f"tolerance {self.tolerance:f} {self.unit}{left}")
 
 
-def assembly_document(name: str, parts: list[ExactPart], grid: Grid) -> dict:
-    """The assembly JSON document (numbers as exact ``int``/``Decimal``) of exact parts."""
+def assembly_document(name: str, parts: list[ExactPart], grid: Grid, units: str | None = None
+                      ) -> dict:
+    """The assembly JSON document (numbers as exact ``int``/``Decimal``) of exact parts;
+    ``units``: the coordinates' unit, stated in the document (``"units"``) when given."""
     def ring(r):
         return [[grid.value(x), grid.value(y)] for x, y in r]
 
-    return {"name": name, "parts": [
+    return {"name": name, **({"units": units} if units else {}), "parts": [
         {"id": p.id, "polygon": ring(p.outer), **({"holes": [ring(h) for h in p.holes]}
                                                   if p.holes else {})}
         for p in parts]}
@@ -170,7 +172,7 @@ def import_drawing(path: str | Path, options: ImportOptions = ImportOptions()) -
         parts = group_parts(rings, options.parts)
     except Problem as exc:
         raise DrawingError(source, str(exc)) from None
-    doc = assembly_document(path.stem or "drawing", parts, grid)
+    doc = assembly_document(path.stem or "drawing", parts, grid, options.units)
     assembly = _validated(doc, source, parts)
     return ImportResult(assembly, gaps, options.units, grid.step, drawing.unit_note,
                         dict(drawing.ignored))

@@ -46,8 +46,10 @@ import numpy as np
 from rap.operation import Operation
 from rap.plan.graph import (Interlocked, argmax_first, assembly_order, dead_end, dp_choice,
                             dp_tree, reachable)
-from rap.plan.problem import PlanningProblem, minimal_interlocked
-from rap.plan.result import PlanResult, PlanStatus, PlanStep, interlocked_message
+from rap.plan.execution import annotate_plan
+from rap.plan.cell import blocked_by, constraint_stats
+from rap.plan.problem import PlanningProblem
+from rap.plan.result import PlanResult, PlanStatus, PlanStep
 from rap.plan.scorers import Budget, BudgetSpent, Scorer
 from rap.seeds import derive_rng
 
@@ -83,16 +85,17 @@ class Planner(abc.ABC):
             now = scorer.stats.to_dict()
             return {k: now[k] - base[k] for k in now}
 
+        stats.update(constraint_stats(problem))  # the cell's constraints, the scores' scope
         try:
             steps = self._search(problem, scorer, stats)
         except Interlocked as exc:
-            culprit = minimal_interlocked(problem, exc.subset)
+            culprit, message = blocked_by(problem, exc.subset)  # an interlock or a constraint
             return PlanResult(PlanStatus.INFEASIBLE, self.name, problem.assembly.name,
                               seconds=time.perf_counter() - t0,
                               interlocked=tuple(sorted(culprit)),
                               stats={**stats, **counters(),
-                                     "stuck_at": sorted(exc.subset)},
-                              message=interlocked_message(problem.assembly.name, culprit))
+                                     "stuck_at": sorted(exc.subset), "blocked": message},
+                              message=message)
         except BudgetSpent as exc:
             return PlanResult(PlanStatus.BUDGET_SPENT, self.name, problem.assembly.name,
                               seconds=time.perf_counter() - t0,
@@ -108,9 +111,10 @@ class Planner(abc.ABC):
         eval_seconds = time.perf_counter() - t1
         stats["eval_simulations"] = scorer.stats.sim_run - before
         robustness = float(math.prod(s.score for s in steps))  # type: ignore[misc]
-        return PlanResult(PlanStatus.FOUND, self.name, problem.assembly.name, tuple(steps),
-                          robustness, seconds, eval_seconds,
-                          stats={**stats, **counters()})
+        # what a controller and a user read: poses, intervals, reasons (rap.plan.execution)
+        return annotate_plan(PlanResult(PlanStatus.FOUND, self.name, problem.assembly.name,
+                                        tuple(steps), robustness, seconds, eval_seconds,
+                                        stats={**stats, **counters()}), problem)
 
     @abc.abstractmethod
     def _search(self, problem: PlanningProblem, scorer: Scorer, stats: dict) -> list[PlanStep]:

@@ -4,14 +4,21 @@
 no one-step translation: ``interlocked`` names it), ``BUDGET_SPENT`` (the planner stopped at its
 budget of simulations or seconds).
 
-``PlanStep``: one assembly operation in assembly order; ``direction`` is the unit vector along which
-``moving`` travels to its place; ``score`` the simulator's score of that operation (every returned
-sequence is evaluated by the simulator); ``source`` what chose it (``"cnn"``, ``"sim"`` or
-``"random"``); ``confidence`` the CNN's P(high) when the CNN chose it, else ``None``.
+``PlanStep``: one assembly operation in assembly order; ``direction`` (also ``insertion``) is the
+unit vector along which ``moving`` travels to its place, the *insertion* direction (the NDBG's
+removal direction is its opposite); ``score`` the simulator's score of that operation (every
+returned sequence is evaluated by the simulator); ``source`` what chose it (``"cnn"``, ``"sim"`` or
+``"random"``); ``confidence`` the CNN's P(high) when the CNN chose it, else ``None``. Filled in by
+``rap.plan.execution.annotate_plan``: ``score_interval`` (``rap.plan.score_intervals``),
+``reason`` (``rap.plan.reasons``) and ``robot`` (a ``RobotMove``: start, approach and goal poses,
+travel, in the assembly's units; ``rap.plan.execution``).
 
 ``PlanResult.to_json()`` is the ``rap-farm plan --out`` document and the body of the planning
 service's answer (``rap.farm.serve``); ``PlanResult.from_json(doc)`` reads it back (what
-``rap-farm plan --server`` prints and writes), so ``from_json(doc).to_json() == doc``.
+``rap-farm plan --server`` prints and writes), so ``from_json(doc).to_json() == doc``. A step's
+direction is written as ``"insertion"``; documents of earlier versions, with ``"direction"`` and
+without the intervals, reasons and robot moves, are read too. The keys are documented in
+README.md ("Plan files").
 """
 
 from __future__ import annotations
@@ -23,8 +30,8 @@ from typing import Sequence
 
 from rap.operation import Operation
 
-__all__ = ["PlanStatus", "PlanStep", "PlanResult", "SOURCES", "robustness_of", "is_assembly_order",
-           "interlocked_message"]
+__all__ = ["PlanStatus", "PlanStep", "PlanResult", "RobotMove", "SOURCES", "robustness_of",
+           "is_assembly_order", "interlocked_message"]
 
 SOURCES = ("cnn", "sim", "random")
 
@@ -33,6 +40,43 @@ class PlanStatus(Enum):
     FOUND = "found"
     INFEASIBLE = "infeasible"
     BUDGET_SPENT = "budget spent"
+
+
+def _pair(v) -> tuple[float, float]:
+    return float(v[0]), float(v[1])
+
+
+@dataclass(frozen=True)
+class RobotMove:
+    """Where a step's moving subassembly goes, in the assembly's units (``rap.plan.execution``):
+    poses are translations from its assembled placement (``goal`` is (0, 0)); ``start`` the
+    simulator's start, ``clearance`` clear of the fixed subassembly; ``approach`` the start pulled
+    back by ``approach_distance`` along -insertion; ``travel`` the scored path's length;
+    ``centroid_goal`` the moving subassembly's area centroid assembled (at a pose: plus it)."""
+
+    start: tuple[float, float]
+    approach: tuple[float, float]
+    goal: tuple[float, float]
+    travel: float
+    clearance: float
+    approach_distance: float
+    centroid_goal: tuple[float, float]
+
+    def centroid_at(self, pose: tuple[float, float]) -> tuple[float, float]:
+        return self.centroid_goal[0] + pose[0], self.centroid_goal[1] + pose[1]
+
+    def to_json(self) -> dict:
+        return {"start": list(self.start), "approach": list(self.approach),
+                "goal": list(self.goal), "travel": self.travel, "clearance": self.clearance,
+                "approach_distance": self.approach_distance,
+                "centroid": {k: list(self.centroid_at(getattr(self, k)))
+                             for k in ("start", "approach", "goal")}}
+
+    @classmethod
+    def from_json(cls, doc: dict) -> "RobotMove":
+        return cls(_pair(doc["start"]), _pair(doc["approach"]), _pair(doc["goal"]),
+                   float(doc["travel"]), float(doc["clearance"]),
+                   float(doc["approach_distance"]), _pair(doc["centroid"]["goal"]))
 
 
 @dataclass(frozen=True)
@@ -44,6 +88,14 @@ class PlanStep:
     score: float | None = None
     confidence: float | None = None
     operation: Operation | None = field(default=None, compare=False, repr=False)
+    score_interval: tuple[float, float] | None = None
+    reason: str | None = None
+    robot: RobotMove | None = None
+
+    @property
+    def insertion(self) -> tuple[float, float]:
+        """The insertion direction (``direction``'s name in plan files): removal = -insertion."""
+        return self.direction
 
     @classmethod
     def of(cls, op: Operation, source: str, confidence: float | None = None,
@@ -60,8 +112,24 @@ class PlanStep:
 
     def to_json(self) -> dict:
         return {"moving": list(self.moving), "fixed": list(self.fixed),
-                "direction": [self.direction[0], self.direction[1]], "score": self.score,
-                "source": self.source, "confidence": self.confidence}
+                "insertion": [self.direction[0] + 0.0, self.direction[1] + 0.0],  # no -0.0
+                "score": self.score,
+                "score_interval": None if self.score_interval is None
+                else list(self.score_interval),
+                "source": self.source, "confidence": self.confidence, "reason": self.reason,
+                "robot": None if self.robot is None else self.robot.to_json()}
+
+    @classmethod
+    def from_json(cls, s: dict) -> "PlanStep":
+        """A step of a plan document (``"direction"`` for ``"insertion"`` in older ones)."""
+        lo_hi, robot = s.get("score_interval"), s.get("robot")
+        return cls(tuple(map(str, s["moving"])), tuple(map(str, s["fixed"])),
+                   _pair(s["insertion"] if "insertion" in s else s["direction"]),
+                   str(s["source"]), None if s["score"] is None else float(s["score"]),
+                   None if s["confidence"] is None else float(s["confidence"]),
+                   score_interval=None if lo_hi is None else _pair(lo_hi),
+                   reason=None if s.get("reason") is None else str(s["reason"]),
+                   robot=None if robot is None else RobotMove.from_json(robot))
 
 
 def interlocked_message(assembly: str, parts) -> str:
@@ -104,7 +172,9 @@ def is_assembly_order(steps: Sequence[PlanStep], parts: Sequence[str]) -> str | 
 class PlanResult:
     """The outcome of one planner run (see module doc). ``seconds``: time to find the sequence;
     ``eval_seconds``: time to evaluate it with the simulator afterwards (0 when every step's score
-    was already known); ``stats``: counters (CNN batches, simulations, cache hits, fallbacks, ...)."""
+    was already known); ``stats``: counters (CNN batches, simulations, cache hits, fallbacks, ...);
+    ``units``: the assembly's units; ``trials``: simulator trials behind each score;
+    ``robustness_interval``: R's interval at ``confidence_level`` (``rap.plan.score_intervals``)."""
 
     status: PlanStatus
     method: str
@@ -116,6 +186,10 @@ class PlanResult:
     interlocked: tuple[str, ...] | None = None
     stats: dict = field(default_factory=dict)
     message: str = ""
+    units: str = "unit"
+    trials: int | None = None
+    robustness_interval: tuple[float, float] | None = None
+    confidence_level: float | None = None
 
     @property
     def found(self) -> bool:
@@ -134,15 +208,14 @@ class PlanResult:
             common = dict(method=str(doc["method"]), assembly=str(doc["assembly"]),
                           eval_seconds=float(eval_seconds), stats=dict(stats or {}))
             if feasible is True:
-                steps = tuple(
-                    PlanStep(tuple(map(str, s["moving"])), tuple(map(str, s["fixed"])),
-                             (float(s["direction"][0]), float(s["direction"][1])), str(s["source"]),
-                             None if s["score"] is None else float(s["score"]),
-                             None if s["confidence"] is None else float(s["confidence"]))
-                    for s in doc["steps"])
-                r = doc["robustness"]
+                steps = tuple(PlanStep.from_json(s) for s in doc["steps"])
+                r, r_lo_hi = doc["robustness"], doc.get("robustness_interval")
+                trials, level = doc.get("trials"), doc.get("confidence_level")
                 return cls(PlanStatus.FOUND, steps=steps, robustness=None if r is None else float(r),
-                           seconds=float(doc["seconds"]), **common)
+                           seconds=float(doc["seconds"]), units=str(doc.get("units", "unit")),
+                           trials=None if trials is None else int(trials),
+                           robustness_interval=None if r_lo_hi is None else _pair(r_lo_hi),
+                           confidence_level=None if level is None else float(level), **common)
             if feasible is False:
                 parts = tuple(map(str, doc["interlocked"]))
                 return cls(PlanStatus.INFEASIBLE, interlocked=parts,
@@ -156,8 +229,11 @@ class PlanResult:
         """The ``--out`` document: exactly the keys documented for ``rap-farm plan``."""
         if self.status is PlanStatus.FOUND:
             return {"assembly": self.assembly, "method": self.method, "feasible": True,
-                    "robustness": self.robustness, "steps": [s.to_json() for s in self.steps],
-                    "seconds": self.seconds}
+                    "units": self.units, "robustness": self.robustness,
+                    "robustness_interval": None if self.robustness_interval is None
+                    else list(self.robustness_interval),
+                    "confidence_level": self.confidence_level, "trials": self.trials,
+                    "steps": [s.to_json() for s in self.steps], "seconds": self.seconds}
         if self.status is PlanStatus.INFEASIBLE:
             return {"assembly": self.assembly, "method": self.method, "feasible": False,
                     "interlocked": list(self.interlocked or ())}
