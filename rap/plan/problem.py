@@ -14,8 +14,14 @@ is valid* (``rap.plan.validate``), in the manner of OMPL's ``ProblemDefinition``
   score never depends on which process or planner asked for it.
 
 ``candidates(subset)`` returns the operations that assemble ``subset`` from two of its subsets
-(deduplicated by content key, in the partition function's order); an empty tuple means the subset
-is interlocked. The NDBG is built once, lazily. ``partition_fn`` replaces the NDBG for tests.
+(deduplicated by content key, in the partition function's order) that obey the problem's
+``constraints`` (``rap.plan.constraints.CellConstraints``: fixture, one arm, insertion cones,
+gravity; applied by ``rap.plan.cell``, so every planner obeys them); an empty tuple means the
+subset is interlocked or blocked by the constraints. ``splits(subset)`` gives every operation
+without the constraints, with its ``Partition`` (None from a ``partition_fn``); ``stability``
+the memoised static check of a subassembly (``stability_fn``, default
+``rap.sim.statics.check_static``). The NDBG is built once, lazily. ``partition_fn`` replaces the
+NDBG for tests. An operation's key and seed do not depend on the constraints.
 
 No ray, no torch.
 """
@@ -30,25 +36,30 @@ from rap.assembly import Assembly
 from rap.enumerate import label_key, label_seed
 from rap.errors import ParameterError
 from rap.operation import Operation
+from rap.plan.constraints import CellConstraints
 from rap.seeds import DEFAULT_ROOT_SEED
 
-__all__ = ["SPACES", "check_space", "PlanningProblem", "PartitionFn", "minimal_interlocked"]
+__all__ = ["SPACES", "check_space", "PlanningProblem", "PartitionFn", "StabilityFn",
+           "minimal_interlocked"]
 
 SPACES = ("online", "all")
 
 # (subset) -> iterable of Operations assembling ``subset``
 PartitionFn = Callable[[frozenset], Iterable[Operation]]
+# (assembly, subset, base part, unit gravity, friction) -> an object with ``stable``, ``reason``
+StabilityFn = Callable[..., object]
 
 
 def _ndbg_partition_fn(assembly: Assembly, space: str) -> PartitionFn:
+    """(subset) -> [(Operation, Partition)] from the NDBG."""
     from rap.geometry import partitions as P
     from rap.geometry.ndbg import build_ndbg
 
     ndbg = build_ndbg(assembly)
     choose = P.online_partitions if space == "online" else P.all_partitions
 
-    def fn(subset: frozenset) -> list[Operation]:
-        return [p.operation() for p in choose(ndbg, frozenset(subset))]
+    def fn(subset: frozenset) -> list[tuple[Operation, object]]:
+        return [(p.operation(), p) for p in choose(ndbg, frozenset(subset))]
 
     return fn
 
@@ -68,12 +79,18 @@ class PlanningProblem:
     root_seed: int = DEFAULT_ROOT_SEED
     space: str = "online"
     partition_fn: PartitionFn | None = field(default=None, repr=False)
+    constraints: CellConstraints = CellConstraints()
+    stability_fn: StabilityFn | None = field(default=None, repr=False)
     _cache: dict = field(default_factory=dict, init=False, repr=False)
+    _splits: dict = field(default_factory=dict, init=False, repr=False)
+    _stable: dict = field(default_factory=dict, init=False, repr=False)
+    _ndbg_fn: Callable | None = field(default=None, init=False, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
     def __post_init__(self):
         check_space(self.space)
         self.root_seed = int(self.root_seed)
+        self.constraints.check(self.assembly)
 
     # -- identity of operations -----------------------------------------------------------------
     @property
@@ -97,28 +114,67 @@ class PlanningProblem:
         return label_seed(op, self.geometry_hash, self.params_fingerprint, self.root_seed)
 
     # -- the operation space --------------------------------------------------------------------
+    def splits(self, subset: Iterable[str]) -> tuple[tuple[Operation, object], ...]:
+        """Every operation assembling ``subset`` without the constraints, with its ``Partition``
+        (None where ``partition_fn`` gave it), deduplicated by content key in the partition
+        function's order (empty when interlocked). Memoised; thread-safe."""
+        subset = frozenset(subset)
+        with self._lock:
+            hit = self._splits.get(subset)
+            if hit is not None:
+                return hit
+            if self.partition_fn is None and self._ndbg_fn is None:
+                self._ndbg_fn = _ndbg_partition_fn(self.assembly, self.space)
+            user, ndbg = self.partition_fn, self._ndbg_fn
+        seen: dict[str, tuple[Operation, object]] = {}
+        if len(subset) >= 2:
+            gh = self.geometry_hash
+            pairs = ((op, None) for op in user(subset)) if user is not None else ndbg(subset)
+            for op, part in pairs:
+                if op.subassembly != subset:
+                    raise ValueError(f"partition function returned {op.describe()} for "
+                                     f"{{{','.join(sorted(subset))}}}")
+                seen.setdefault(op.key(gh), (op, part))
+        out = tuple(seen.values())
+        with self._lock:
+            self._splits[subset] = out
+        return out
+
     def candidates(self, subset: Iterable[str]) -> tuple[Operation, ...]:
-        """Operations assembling ``subset`` (empty when interlocked). Memoised; thread-safe."""
+        """Operations assembling ``subset`` that obey the constraints (empty when interlocked or
+        blocked). Memoised; thread-safe."""
         subset = frozenset(subset)
         with self._lock:
             hit = self._cache.get(subset)
             if hit is not None:
                 return hit
-            if self.partition_fn is None:
-                self.partition_fn = _ndbg_partition_fn(self.assembly, self.space)
-            fn = self.partition_fn
-        seen: dict[str, Operation] = {}
-        if len(subset) >= 2:
-            gh = self.geometry_hash
-            for op in fn(subset):
-                if op.subassembly != subset:
-                    raise ValueError(f"partition function returned {op.describe()} for "
-                                     f"{{{','.join(sorted(subset))}}}")
-                seen.setdefault(op.key(gh), op)
-        ops = tuple(seen.values())
+        if self.constraints.active:
+            from rap.plan.cell import constrained_candidates
+
+            ops = constrained_candidates(self, subset, self.constraints)
+        else:
+            ops = tuple(op for op, _ in self.splits(subset))
         with self._lock:
             self._cache[subset] = ops
         return ops
+
+    def stability(self, subset: Iterable[str]):
+        """The static check of ``subset`` standing on the base under the constraints' gravity
+        (``stability_fn``, default ``rap.sim.statics.check_static``): an object with ``stable``
+        and ``reason``. Memoised per subset; precondition: ``constraints.gravity`` is set."""
+        subset = frozenset(subset)
+        with self._lock:
+            hit = self._stable.get(subset)
+        if hit is not None:
+            return hit
+        fn = self.stability_fn
+        if fn is None:
+            from rap.sim.statics import check_static as fn
+        c = self.constraints
+        support = fn(self.assembly, subset, c.base, c.gravity_unit(), c.friction)
+        with self._lock:
+            self._stable[subset] = support
+        return support
 
     def is_interlocked(self, subset: Iterable[str]) -> bool:
         subset = frozenset(subset)
