@@ -1,0 +1,76 @@
+"""Benchmark: per-call cost of ``rap.sim.statics.check_static`` on subsets of the 22-brick wall.
+
+Run: ``python benchmarks/statics.py [--subsets N] [--seed S]``. Loads
+``assemblies/cells/brick-wall-22.json`` and checks, under gravity (0, -1) with the plate as the
+base: every bottom-up prefix of the wall (brick by brick, course by course; all stable), then N
+distinct random subsets (a seeded number of bricks chosen uniformly; mostly unstable). Each
+subset is checked once with a cold result cache (the contact table and per-part data are built
+once, timed separately), then once more (a cache hit). Prints the first-call cost (mean, median,
+95th percentile) of stable and unstable subsets, and the cache hit's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from rap.geometry.contacts import contact_table
+from rap.io import load_assembly
+from rap.sim.statics import check_static
+
+WALL = Path(__file__).resolve().parents[1] / "assemblies" / "cells" / "brick-wall-22.json"
+
+
+def _row(name: str, times: list[float]) -> str:
+    if not times:
+        return f"{name:<28} (none)"
+    ms = sorted(t * 1e3 for t in times)
+    p95 = ms[min(len(ms) - 1, int(0.95 * len(ms)))]
+    return (f"{name:<28} n={len(ms):<5} mean {statistics.fmean(ms):6.2f} ms  "
+            f"median {statistics.median(ms):6.2f} ms  p95 {p95:6.2f} ms")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--subsets", type=int, default=500)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    wall = load_assembly(WALL)
+    bricks = sorted((p for p in wall.ids if p != "plate"),
+                    key=lambda b: (int(b[1:].split("_")[0]), int(b.split("_b")[1])))
+    t = time.perf_counter()
+    contact_table(wall)
+    check_static(wall, ["plate", bricks[0]], "plate", (0, -1))
+    print(f"contact table and per-part data, once: {1e3 * (time.perf_counter() - t):.1f} ms")
+
+    subsets = [frozenset(["plate", *bricks[:k]]) for k in range(2, len(bricks) + 1)]
+    rng = np.random.default_rng(args.seed)
+    seen = set(subsets)
+    while len(subsets) < len(bricks) - 1 + args.subsets:
+        k = int(rng.integers(1, len(bricks) + 1))
+        s = frozenset(["plate", *rng.choice(bricks, size=k, replace=False).tolist()])
+        if s not in seen:
+            seen.add(s)
+            subsets.append(s)
+
+    cold = {True: [], False: []}
+    hot = []
+    for s in subsets:
+        t = time.perf_counter()
+        verdict = check_static(wall, s, "plate", (0, -1))
+        cold[verdict.stable].append(time.perf_counter() - t)
+        t = time.perf_counter()
+        check_static(wall, s, "plate", (0, -1))
+        hot.append(time.perf_counter() - t)
+    print(_row("first call, stable", cold[True]))
+    print(_row("first call, not stable", cold[False]))
+    print(_row("first call, all", cold[True] + cold[False]))
+    print(_row("cache hit", hot))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,254 @@
+"""Static equilibrium of parts under gravity with Coulomb friction: a linear program over contact
+forces.
+
+Model: the parts ``ids`` stand on the part ``base``, which is fixed (the fixture) and may take
+any force. Every other part is a rigid body of uniform density (mass = area) pulled along
+``gravity`` (a direction; its magnitude does not matter). Parts touch along the contacts of
+``rap.geometry.contacts`` between parts of ``ids`` only (vertex-vertex touching carries nothing).
+The force that part ``a`` exerts on part ``b`` across a contact segment is represented by forces
+at the segment's two end points (one point for a point contact): for a planar rigid contact any
+admissible distribution of pressure and friction along a segment is equivalent to such a pair, so
+this is exact. Each end point force lies in the Coulomb cone ``|f_t| <= mu f_n`` with ``f_n >= 0``
+(no glue), written exactly in 2D as the non-negative combination of its two edge rays
+``n + mu t`` and ``n - mu t`` (``n`` the unit normal from ``a`` into ``b``, ``t`` the tangent).
+Newton's third law: ``b`` feels the force, ``a`` its opposite. Every non-base part must be in
+equilibrium of force and torque (about its centroid). The parts are statically stable when the
+program is feasible (``Support.stable``). The check is the existence of an equilibrium (the
+rigid-block analysis of masonry, and ASAP's check): it does not prove that a real pile finds that
+equilibrium, hence the independent settling simulation ``rap.sim.settling``.
+
+Scaling, so that HiGHS's absolute tolerances (1e-7) mean something: lengths in units of the
+assembly's larger extent, about its bounding box's centre; masses in units of the mean part area.
+Decisions within those tolerances of the tipping or sliding limit (a centroid exactly above a
+support corner, a slope exactly at the friction angle) may go either way.
+
+Only the base alone is stable; a non-base part with no contact in ``ids`` is not. When the parts
+are not stable, ``Support.reason`` names them in one line: parts that touch nothing, parts that
+are not connected to the base through contacts, else the parts that need the most help in an
+elastic version of the program (slack forces and torques, least total slack).
+
+Cost: the assembly's contact table and per-part data are built once per geometry hash; a call
+then builds a dense (3 parts) x (4 contact points) matrix and solves one LP with HiGHS (a second,
+elastic one only to name the parts when infeasible): about 2-4 ms for a subset of the 22-brick
+wall (``benchmarks/statics.py``). Results are memoised per
+``(geometry hash, frozenset(ids), base, gravity, friction)`` in a bounded LRU cache
+(``CACHE_SIZE`` entries); it is thread-safe.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Iterable
+
+import numpy as np
+from scipy.optimize import linprog
+
+from rap.assembly import Assembly
+from rap.geometry.contacts import contact_table, contacts_within
+
+__all__ = ["DEFAULT_FRICTION", "Support", "check_static", "CACHE_SIZE"]
+
+DEFAULT_FRICTION = 0.5
+CACHE_SIZE = 65536
+_BLAME_SLACK = 1e-6  # elastic LP: slack above this (in units of the part's weight) names a part
+
+
+@dataclass(frozen=True)
+class Support:
+    """The verdict of ``check_static``: ``reason`` is one line naming the part(s) when not
+    stable."""
+
+    stable: bool
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """Per-assembly data in normalised units (see the module doc)."""
+
+    mass: dict  # part id -> mass (area / mean area)
+    centroid: dict  # part id -> (x, y) normalised
+    points: dict  # (a, b) -> float array [k, 4]: x, y, unit normal (a into b), normalised
+
+
+def _centroid_area(part) -> tuple[float, float, float]:
+    """Exact area and centroid of a part (holes included), returned as floats."""
+    a2 = cx6 = cy6 = 0
+    for ring in part.rings():
+        n = len(ring)
+        for i in range(n):
+            (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % n]
+            c = x0 * y1 - x1 * y0
+            a2 += c
+            cx6 += (x0 + x1) * c
+            cy6 += (y0 + y1) * c
+    return float(a2 / 2), float(cx6 / (3 * a2)), float(cy6 / (3 * a2))
+
+
+def _build(assembly: Assembly) -> _Geometry:
+    x0, y0, x1, y1 = assembly.bounds()
+    size = max(x1 - x0, y1 - y0)
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    data = {p.id: _centroid_area(p) for p in assembly.parts}
+    mean_area = sum(a for a, _, _ in data.values()) / len(data)
+    mass = {pid: a / mean_area for pid, (a, _, _) in data.items()}
+    centroid = {pid: ((x - cx) / size, (y - cy) / size) for pid, (_, x, y) in data.items()}
+    points = {}
+    for pair, contacts in contact_table(assembly).items():
+        rows = []
+        for c in contacts:
+            nx, ny = float(c.normal[0]), float(c.normal[1])
+            norm = math.hypot(nx, ny)
+            for p in ((c.p,) if c.p == c.q else (c.p, c.q)):
+                rows.append(((float(p[0]) - cx) / size, (float(p[1]) - cy) / size,
+                             nx / norm, ny / norm))
+        points[pair] = np.array(rows, dtype=float).reshape(-1, 4)
+    return _Geometry(mass, centroid, points)
+
+
+_GEOMETRY: OrderedDict[str, _Geometry] = OrderedDict()
+_RESULTS: OrderedDict[tuple, Support] = OrderedDict()
+_LOCK = threading.Lock()
+
+
+def _geometry(assembly: Assembly) -> _Geometry:
+    key = assembly.geometry_hash
+    with _LOCK:
+        hit = _GEOMETRY.get(key)
+        if hit is not None:
+            _GEOMETRY.move_to_end(key)
+            return hit
+    geo = _build(assembly)
+    with _LOCK:
+        _GEOMETRY[key] = geo
+        while len(_GEOMETRY) > 32:
+            _GEOMETRY.popitem(last=False)
+    return geo
+
+
+def _names(parts: list[str]) -> str:
+    quoted = ", ".join(repr(p) for p in parts[:5]) + (", ..." if len(parts) > 5 else "")
+    return f"part {quoted}" if len(parts) == 1 else f"parts {quoted}"
+
+
+def _connectivity_reason(chosen: set[str], base: str, pairs) -> str:
+    """A reason when some part touches nothing or is cut off from the base, else ''."""
+    links: dict[str, set[str]] = {p: set() for p in chosen}
+    for a, b in pairs:
+        links[a].add(b)
+        links[b].add(a)
+    alone = sorted(p for p in chosen if p != base and not links[p])
+    if alone:
+        return f"{_names(alone)} {'touches' if len(alone) == 1 else 'touch'} no other part"
+    seen, todo = {base}, [base]
+    while todo:
+        for q in links[todo.pop()] - seen:
+            seen.add(q)
+            todo.append(q)
+    cut = sorted(chosen - seen)
+    if cut:
+        return f"{_names(cut)} {'rests' if len(cut) == 1 else 'rest'} on nothing connected to " \
+               f"the base {base!r}"
+    return ""
+
+
+def _system(geo: _Geometry, movers: list[str], pairs, g: tuple[float, float], mu: float):
+    """A_eq, b_eq of the equilibrium of the parts ``movers`` (3 rows each)."""
+    row = {p: i for i, p in enumerate(movers)}
+    blocks = [geo.points[pair] for pair in pairs]
+    owners = [(row.get(a, -1), row.get(b, -1)) for a, b in pairs]
+    counts = [len(b) for b in blocks]
+    pts = np.concatenate(blocks) if blocks else np.zeros((0, 4))
+    ia = np.repeat([o[0] for o in owners], counts).astype(int)
+    ib = np.repeat([o[1] for o in owners], counts).astype(int)
+    n, t = pts[:, 2:4], np.stack([-pts[:, 3], pts[:, 2]], axis=1)
+    rays = np.concatenate([n + mu * t, n - mu * t])  # [2k, 2]: force on b per unit weight
+    xy = np.concatenate([pts[:, :2], pts[:, :2]])
+    ia, ib = np.concatenate([ia, ia]), np.concatenate([ib, ib])
+    cols = np.arange(len(rays))
+    a_eq = np.zeros((3 * len(movers), len(rays)))
+    cen = np.array([geo.centroid[p] for p in movers]).reshape(-1, 2)
+    for owner, sign in ((ib, 1.0), (ia, -1.0)):
+        ok = owner >= 0
+        k, c, f = owner[ok], cols[ok], sign * rays[ok]
+        r = xy[ok] - cen[k]
+        a_eq[3 * k, c] = f[:, 0]
+        a_eq[3 * k + 1, c] = f[:, 1]
+        a_eq[3 * k + 2, c] = r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
+    m = np.array([geo.mass[p] for p in movers])
+    b_eq = np.zeros(3 * len(movers))
+    b_eq[0::3], b_eq[1::3] = -m * g[0], -m * g[1]
+    return a_eq, b_eq, m
+
+
+def _blame(a_eq, b_eq, m, movers: list[str]) -> list[str]:
+    """The parts with slack in the least-slack elastic program (slack per unit of weight)."""
+    rows = a_eq.shape[0]
+    weight = np.repeat(m, 3)
+    a_el = np.hstack([a_eq, np.diag(weight), -np.diag(weight)])
+    c = np.concatenate([np.zeros(a_eq.shape[1]), np.ones(2 * rows)])
+    res = linprog(c, A_eq=a_el, b_eq=b_eq, bounds=(0, None), method="highs")
+    if res.status != 0:
+        return []
+    s = res.x[a_eq.shape[1]:]
+    slack = (s[:rows] + s[rows:]).reshape(-1, 3).sum(axis=1)
+    return [p for p, v in zip(movers, slack) if v > _BLAME_SLACK]
+
+
+def _solve(assembly: Assembly, chosen: set[str], base: str, g: tuple[float, float],
+           mu: float) -> Support:
+    movers = sorted(chosen - {base})
+    if not movers:
+        return Support(True)
+    pairs = sorted(contacts_within(assembly, chosen))
+    reason = _connectivity_reason(chosen, base, pairs)
+    if reason:
+        return Support(False, reason)
+    geo = _geometry(assembly)
+    a_eq, b_eq, m = _system(geo, movers, pairs, g, mu)
+    res = linprog(np.zeros(a_eq.shape[1]), A_eq=a_eq, b_eq=b_eq, bounds=(0, None),
+                  method="highs")
+    if res.status == 0:
+        return Support(True)
+    blamed = _blame(a_eq, b_eq, m, movers) if res.status == 2 else []
+    who = _names(blamed) if blamed else _names(movers)
+    verb = "has" if len(blamed) == 1 else "have"
+    if res.status != 2:
+        return Support(False, f"{who}: the equilibrium program failed ({res.message})")
+    return Support(False, f"{who} {verb} no equilibrium under gravity with friction {mu:g}: "
+                          f"{'it' if len(blamed) == 1 else 'they'} would slide or tip")
+
+
+def check_static(assembly: Assembly, ids: Iterable[str], base: str,
+                 gravity: tuple[float, float], friction: float = DEFAULT_FRICTION) -> Support:
+    """Is there an equilibrium of the parts ``ids`` standing on the fixed part ``base`` under
+    ``gravity`` with Coulomb friction coefficient ``friction``? (See the module doc for the model,
+    the reasons and the cost.) ``ValueError`` when ``base`` is not in ``ids``, gravity is zero or
+    not finite, or friction is negative; ``KeyError`` for an unknown part id."""
+    chosen = frozenset(ids)
+    if base not in chosen:
+        raise ValueError(f"the base part {base!r} is not among the parts")
+    for pid in chosen:
+        assembly.index(pid)
+    gx, gy = float(gravity[0]), float(gravity[1])
+    norm = math.hypot(gx, gy)
+    if not (math.isfinite(norm) and norm > 0):
+        raise ValueError(f"gravity must be a nonzero finite direction, not {tuple(gravity)}")
+    mu = float(friction)
+    if not (math.isfinite(mu) and mu >= 0):
+        raise ValueError(f"friction must be a finite number >= 0, not {friction}")
+    key = (assembly.geometry_hash, chosen, base, gx, gy, mu)
+    with _LOCK:
+        hit = _RESULTS.get(key)
+        if hit is not None:
+            _RESULTS.move_to_end(key)
+            return hit
+    result = _solve(assembly, set(chosen), base, (gx / norm, gy / norm), mu)
+    with _LOCK:
+        _RESULTS[key] = result
+        while len(_RESULTS) > CACHE_SIZE:
+            _RESULTS.popitem(last=False)
+    return result
