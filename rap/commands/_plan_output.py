@@ -1,32 +1,68 @@
-"""What ``rap-farm plan`` (and ``demo``) make of a plan: the ``--out`` document, written
-atomically, and the table printed with R, timings and the planner's counters."""
+"""What ``rap-farm plan`` (and ``demo``) make of a plan: the ``--out`` document and the ``--csv``
+table (``rap.plan.execution.CSV_COLUMNS``), both written atomically with the umask's mode, and the
+table printed with insertion directions, score intervals, reasons, R, timings and the planner's
+counters."""
 
 from __future__ import annotations
 
+import csv
+import io
 import json
-import os
-import tempfile
 from pathlib import Path
 
 from rap.errors import InputError
+from rap.files import write_text_atomic
 
-__all__ = ["write_plan_json", "print_result"]
+__all__ = ["write_plan_json", "write_plan_csv", "print_result", "interval_text", "bound_lines"]
 
 
 def write_plan_json(result, path: Path) -> Path:
     """Write ``result.to_json()`` (the one serialiser of a plan, also the planning service's answer)
-    atomically: temporary file + rename."""
+    atomically with the umask's mode (``rap.files.write_text_atomic``)."""
     path = Path(path)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=path.parent)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(result.to_json(), fh, indent=2)
-            fh.write("\n")
-        os.replace(tmp, path)
+        return write_text_atomic(path, json.dumps(result.to_json(), indent=2) + "\n")
     except OSError as exc:
         raise InputError(f"--out {path}: cannot write ({exc.strerror or exc})") from None
-    return path
+
+
+def write_plan_csv(result, path: Path) -> Path:
+    """Write a found plan's steps as CSV (header ``CSV_COLUMNS``, one row per step, assembly
+    order; ``rap.plan.execution.plan_rows``), atomically with the umask's mode."""
+    from rap.plan.execution import CSV_COLUMNS, plan_rows
+
+    path = Path(path)
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(plan_rows(result))
+    try:
+        return write_text_atomic(path, buf.getvalue(), newline="")
+    except OSError as exc:
+        raise InputError(f"--csv {path}: cannot write ({exc.strerror or exc})") from None
+
+
+def interval_text(lo_hi, digits: int = 2) -> str:
+    """``[lo, hi]`` as text ("" when unknown)."""
+    return "" if lo_hi is None else f"[{lo_hi[0]:.{digits}f}, {lo_hi[1]:.{digits}f}]"
+
+
+def bound_lines(result) -> list[str]:
+    """The plan's bound on the optimum (``PlanResult.bound``) and how the search stopped, in
+    words; none for a method without a bound."""
+    b, st = result.bound, result.stats
+    if not b:
+        return []
+    v, gap = b["robustness_upper"], b["gap"]
+    out = [f"optimum <= {v:.4f} at {100 * b['confidence']:g}% confidence; this plan is within "
+           f"{100 * gap:.1f}% of it" + (f" ({b['note']})" if b.get("note") else "")]
+    n = st.get("stopped_after", 0)
+    if st.get("stopped") == "gap":
+        out.append(f"stopped at --gap {st['gap']:g} after {n} simulations")
+    elif st.get("stopped") == "bound":
+        out.append(f"stopped after {n} simulations: no sequence left can beat this plan at the "
+                   f"bounds' confidence")
+    return out
 
 
 def print_result(console, result, *, wall_s: float | None = None, title: str | None = None,
@@ -41,24 +77,35 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
         return
     table = Table(title=title or f"{result.assembly}: {result.method} plan "
                                  f"({len(result.steps)} steps, assembly order)")
+    level = f"{100 * result.confidence_level:.0f}% CI" if result.confidence_level else "CI"
+    cnn = any(s.confidence is not None for s in result.steps)  # P(high) only where the CNN chose
     for col, kw in (("step", {"justify": "right"}), ("moving", {"overflow": "fold"}), ("fixed", {"overflow": "fold"}),
-                    ("direction", {"no_wrap": True}), ("score", {"justify": "right"}), ("chosen by", {}),
-                    ("P(high)", {"justify": "right"})):
+                    ("insertion", {"no_wrap": True}), ("score", {"justify": "right"}),
+                    (level, {"no_wrap": True}), ("chosen by", {}),
+                    *((("P(high)", {"justify": "right"}),) if cnn else ()),
+                    ("limited by", {"overflow": "fold"})):
         table.add_column(col, **kw)
     for i, s in enumerate(result.steps, 1):
         bad = s.score is not None and s.score < 0.95
         score = "?" if s.score is None else f"{s.score:.3f}"
         table.add_row(str(i), ",".join(s.moving), ",".join(s.fixed),
                       f"({s.direction[0] + 0.0:+.3f},{s.direction[1] + 0.0:+.3f})",
-                      f"[red]{score}[/]" if bad else score, s.source,
-                      "" if s.confidence is None else f"{s.confidence:.3f}")
+                      f"[red]{score}[/]" if bad else score, interval_text(s.score_interval),
+                      s.source, *(("" if s.confidence is None else f"{s.confidence:.3f}",)
+                                  if cnn else ()), s.reason or "")
     console.print(table)
     st = result.stats
-    line = f"robustness R = {result.robustness:.4f} (product of the simulator's step scores)"
+    line = f"robustness R = {result.robustness:.4f} (product of the simulator's step scores"
+    if result.robustness_interval is not None:
+        line += (f"; {level} {interval_text(result.robustness_interval, 3)} from "
+                 f"{result.trials} trials a step, Bonferroni")
+    line += ")"
     if result.method == "random" and "mean_robustness" in st:
         line += (f"; mean over {st['samples']} random sequences = {st['mean_robustness']:.4f} "
                  f"(shown: the sample closest to the mean)")
     console.print(line)
+    for text in bound_lines(result):
+        console.print(text)
     parts = [f"planning {result.seconds:.2f} s", f"evaluation {result.eval_seconds:.2f} s"]
     if wall_s is not None:
         parts.append(f"wall {wall_s:.2f} s" + (" (Ray start-up included)" if ray else ""))
@@ -81,3 +128,8 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                      f"vs. {st['exhaustive_sequences']:,} sequences for an exhaustive search "
                      f"({st['dp_speedup']:.0f}x fewer step evaluations)")
     console.print("; ".join(facts))
+    if result.steps and result.steps[0].robot is not None:
+        units = "units" if result.units == "unit" else result.units
+        console.print(f"insertion = the direction the moving parts travel to their place "
+                      f"(removal = -insertion); poses and travel in {units}: see --out / --csv",
+                      style="dim")

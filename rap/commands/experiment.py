@@ -5,7 +5,8 @@ For each assembly of DATASET (found as ``--assemblies DIR/NAME.json``), a CNN th
 refused for an assembly the checkpoint was trained on), and RAP vs the sim-only baseline vs the
 optimum vs the mean of 50 random sequences: robustness and planning time (cold score cache). The
 simulator runs on the Ray pool (local Ray, or ``--address``). Writes ``OUT/results.md``,
-``OUT/results.json`` and ``OUT/scores.png``.
+``OUT/results.json`` and ``OUT/scores.png``. While it runs, a transient progress line on stderr
+(a terminal only) shows the latest step; the log lines print above it.
 """
 
 from __future__ import annotations
@@ -89,13 +90,20 @@ def experiment_command(
     from rap.farm.pool import SimPool
     from rap.farm.runtime import connect
 
-    with connect(address) as rt:
+    from rap.commands._progress import activity
+
+    with connect(address) as rt, activity(f"experiment on {Path(dataset).name}") as progress:
+        def log(line: str) -> None:
+            typer.echo(line)
+            progress.update(" ".join(str(line).split())[:90])
+
+        progress.update(f"starting {workers or rt.cpus} simulation workers")
         pool = SimPool(workers or rt.cpus)
         try:
             pool.ready(start_timeout)
             rows = run_experiment(dataset, asms, sim_backend=service.PoolSimulator(pool),
                                   models_dir=models, epochs=epochs, trials=trials,
-                                  methods=wanted, log=typer.echo, model=model)
+                                  methods=wanted, log=log, model=model)
         finally:
             pool.shutdown()
     notes = {"dataset": str(dataset), "simulation workers": workers or rt.cpus,

@@ -2,8 +2,10 @@
 
 ``--json`` prints exactly ``{"assembly": name, "parts": [ids], "cells": [{"kind": "vertex"|"arc",
 "direction": [dx, dy], "blocks": [[a, b], ...]}, ...]}``: cells CCW from angle 0, ``direction``
-the float unit removal direction (an arc's middle, a vertex's critical direction), ``[a, b]``
-(part ids, sorted) meaning that translating part a alone along it collides with part b.
+the float unit removal direction (an arc's middle, a vertex's critical direction; removal =
+-insertion, the direction ``plan`` shows), ``[a, b]`` (part ids, sorted) meaning that translating
+part a alone along it collides with part b. The NDBG and the counts show a transient progress line
+on stderr (a terminal only).
 Invalid input raises ``AssemblyError`` (one line on stderr, exit status 2).
 """
 
@@ -92,12 +94,20 @@ def register(app: typer.Typer) -> None:
         from rap.io import load_assembly
         from rap.geometry.ndbg import build_ndbg
 
-        asm = load_assembly(assembly_file)
-        ndbg = build_ndbg(asm)
+        from rap.commands._progress import activity
+
+        with activity(f"inspecting {Path(assembly_file).name}") as progress:
+            progress.update("reading the assembly")
+            asm = load_assembly(assembly_file)
+            progress.update("building the NDBG")
+            ndbg = build_ndbg(asm)
+            if not as_json:
+                progress.update("counting partitions and AND/OR graphs")
+                counts = inspect_counts(ndbg, max_partitions, max_subassemblies)
         if as_json:
             typer.echo(json.dumps(inspect_json(asm, ndbg)))
             return
-        _human(asm, ndbg, inspect_counts(ndbg, max_partitions, max_subassemblies))
+        _human(asm, ndbg, counts)
 
 
 def _human(asm, ndbg, counts) -> None:
@@ -113,10 +123,11 @@ def _human(asm, ndbg, counts) -> None:
         parts.add_row(p.id, str(len(p.outer) + sum(len(h) for h in p.holes)), str(len(p.holes)),
                       str(area) if area.denominator == 1 else f"{float(area):.6g}")
     con.print(parts)
-    nd = Table(title="NDBG (removal directions, CCW from +x)")
+    nd = Table(title="NDBG (removal directions, CCW from +x; removal = -insertion, the direction "
+                     "plan shows)")
     nd.add_column("cell", justify="right")
     nd.add_column("kind")
-    nd.add_column("direction", justify="right")
+    nd.add_column("removal", justify="right")
     nd.add_column("blocking pairs", justify="right")
     shown = ndbg.cells if len(ndbg.cells) <= 24 else ndbg.cells[:24]
     for k, c in enumerate(shown):

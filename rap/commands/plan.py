@@ -12,7 +12,8 @@ Where the work happens:
 
 The same operation gets the same simulator seed everywhere, so scores do not depend on where they
 were computed. Exit status 0 with a plan, 1 when the assembly is interlocked (no sequence of
-one-step translations exists), 2 for invalid input (or a request the service refused), 3 when the
+one-step translations exists) or the cell's constraints (``--base``, ``--linear``,
+``--directions``, ``--gravity``: ``rap.plan.constraints``) block every sequence, 2 for invalid input (or a request the service refused), 3 when the
 service fails.
 
 ``plan_command`` runs three steps: ``_check_request`` (the method, the space and every planner
@@ -28,7 +29,7 @@ from pathlib import Path
 
 import typer
 
-from rap.commands._plan_output import print_result, write_plan_json
+from rap.commands._plan_output import print_result, write_plan_csv, write_plan_json
 from rap.errors import EXIT_INFEASIBLE, InputError, ParameterError, RapError
 from rap.plan.methods import (DEFAULT_METHOD, METHODS, RandomOptions, check_options,
                               method_options, needs_model, option_named)
@@ -108,6 +109,9 @@ def plan_command(
     model: Path = typer.Option(None, "--model", help="CNN checkpoint [default: the shipped model]."),
     method: str = typer.Option(DEFAULT_METHOD, "--method", help=_method_help()),
     out: Path = typer.Option(None, "--out", "-o", help="Write the plan as JSON here."),
+    csv: Path = typer.Option(None, "--csv", help="Write the plan's steps as CSV here (one row "
+                             "a step: parts, insertion, poses, travel, units, score interval, "
+                             "reason; README, Plan files)."),
     picture: Path = typer.Option(None, "--picture", help="Storyboard of the plan (.png or .svg)."),
     address: str = typer.Option(None, "--address", help="Plan on this Ray cluster (HOST:PORT or "
                                 "auto; default $RAY_ADDRESS, else on this machine without Ray)."),
@@ -133,6 +137,21 @@ def plan_command(
     simulations: int = _method_flag("simulations"),
     trust: float = _method_flag("trust"),
     optimism: float = _method_flag("optimism"),
+    upper: float = _method_flag("upper"),
+    confidence: float = _method_flag("confidence"),
+    gap: float = _method_flag("gap"),
+    # the robot cell's constraints (rap.plan.constraints; docs/PLANNING.md, Robot-cell constraints)
+    base: str = typer.Option(None, "--base", help="Part fixed in the fixture from the start: "
+                             "it never moves (every step's fixed side holds it)."),
+    linear: bool = typer.Option(False, "--linear", help="One arm: every step moves one part."),
+    directions: list[str] = typer.Option(None, "--directions", help="DX,DY:DEG: insertion "
+                                         "directions within DEG degrees of (DX,DY), e.g. "
+                                         "0,-1:30 (repeatable: any of the cones)."),
+    gravity: str = typer.Option(None, "--gravity", help="DX,DY: gravity in the drawing's plane "
+                                "(needs --base): every intermediate assembly stands statically "
+                                "on the base; e.g. 0,-1."),
+    friction: float = typer.Option(None, "--friction", help="Coulomb friction at the contacts "
+                                   "with --gravity [default: 0.5]."),
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
                                 "actors with --address [default: all CPUs]."),
 ):
@@ -144,26 +163,49 @@ def plan_command(
     console, err = make_console(), make_console(stderr=True)
     options = dict(samples=samples, fallback_k=fallback_k, high_probability=high_probability,
                    fallback_optimism=fallback_optimism, beam_width=beam_width,
-                   simulations=simulations, trust=trust, optimism=optimism)  # None: not given
+                   simulations=simulations, trust=trust, optimism=optimism, upper=upper,
+                   confidence=confidence, gap=gap)  # None: not given
     _check_request(method, space, options, out, picture, err)
+    cell = _cell_constraints(base, linear, directions, gravity, friction)
+    _check_suffix(csv, "--csv", (".csv",))
     settings = dict(address=address, no_ray=no_ray, model=model, trials=trials, space=space,
                     cache=cache, no_cache=no_cache, workers=workers)
     if no_ray and address:
         raise InputError("--no-ray and --address exclude each other")
     if server is not None:
         _check_server_settings(settings, options)
+    settings["constraints"] = cell
     asm = load_assembly(assembly)
+    _check_cell(cell, asm)
     t0 = time.perf_counter()
     if server is not None:
         result, on_ray = _plan_by_service(assembly, asm, method, seed, options, server, token,
-                                          console), False
+                                          console, cell), False
         settings["cache"] = None
     else:
         root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
         result, on_ray = _plan_with_workers(asm, method, root_seed, options, settings, console,
                                             err)
     _show(console, err, asm, result, time.perf_counter() - t0, out=out, picture=picture,
-          server=server, on_ray=on_ray, cache_path=settings["cache"])
+          server=server, on_ray=on_ray, cache_path=settings["cache"], csv=csv)
+
+
+def _cell_constraints(base, linear, directions, gravity, friction):
+    """The cell's constraints of the flags (``rap.plan.constraints``); one line naming the flag
+    for a bad value."""
+    from rap.commands._flags import flags
+    from rap.plan.constraints import CellConstraints
+
+    with flags("base", "linear", "directions", "gravity", "friction"):
+        return CellConstraints.parse(base, linear, directions, gravity, friction)
+
+
+def _check_cell(cell, asm) -> None:
+    """``--base`` must name a part of the assembly."""
+    from rap.commands._flags import flags
+
+    with flags("base"):
+        cell.check(asm)
 
 
 def _check_request(method: str, space: str, options: dict, out, picture, err) -> None:
@@ -178,9 +220,10 @@ def _check_request(method: str, space: str, options: dict, out, picture, err) ->
         check_options(**options)
     except ParameterError as exc:
         raise InputError(exc.for_name(_flag(exc.parameter))) from None
-    if (options["trust"] is not None or options["optimism"]) and not options["simulations"]:
-        err.print("[yellow]warning:[/] --trust and --optimism choose what to simulate: without "
-                  "--simulations N they change nothing")
+    if ((options["trust"] is not None or options["optimism"] or options["upper"]
+         or options["gap"] is not None) and not options["simulations"]):
+        err.print("[yellow]warning:[/] --trust, --optimism, --upper and --gap choose what to "
+                  "simulate: without --simulations N they change nothing")
     _check_suffix(out, "--out", (".json",))
     _check_suffix(picture, "--picture", (".png", ".svg"))
 
@@ -203,7 +246,7 @@ def _check_server_settings(settings: dict, options: dict) -> None:
 
 
 def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, server: str, token,
-                     console):
+                     console, constraints=None):
     """Step 2, with ``--server``: the service plans; the method's options travel with the
     request. The client's errors name the parameter ``server``: here, the flag."""
     from rap.client import ServiceError, plan_body, post_plan
@@ -211,16 +254,19 @@ def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, serv
     from rap.plan.result import PlanResult
 
     sent = {o.name: options[o.name] for o in METHODS[method].declared() if o.service and o.cli}
-    body = plan_body(assembly, method, seed, sent)
+    body = plan_body(assembly, method, seed, sent, constraints=constraints)
     with flags("server"), console.status(f"planning {asm.name} with {method} at {server} ..."):
         try:
             doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
         except ServiceError as exc:
             raise ServiceError(server, exc.reason, name="--server") from None
     try:
-        return PlanResult.from_json(doc, **details)
+        result = PlanResult.from_json(doc, **details)
     except ValueError as exc:
         raise ServiceError(server, str(exc), name="--server") from None
+    blocked = result.stats.get("blocked")  # a constraint's block, named by the service
+    return result.with_(message=blocked) if isinstance(blocked, str) and not result.found \
+        else result
 
 
 def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings: dict, console,
@@ -238,9 +284,13 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
     address = settings["address"]
     address = None if settings["no_ray"] else (address or os.environ.get("RAY_ADDRESS") or None)
     space, workers = settings["space"], settings["workers"]
-    if address is None:
-        return _plan_here(asm, method, params, root_seed, space, model_path, cache_path,
-                          _local_workers(workers), err, options), False
+    if address is None:  # a transient progress line on stderr from the start (a terminal only)
+        from rap.commands._progress import activity
+
+        with activity(f"planning {asm.name} with {method}", err) as progress:
+            return _plan_here(asm, method, params, root_seed, space, model_path, cache_path,
+                              _local_workers(workers), err, options, progress=progress,
+                              constraints=settings.get("constraints")), False
     import rap.farm.service as service
 
     if model_path is not None:
@@ -248,7 +298,8 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
     planner_options = {k: v for k, v in options.items() if k != "samples"}
     req = service.PlanRequest(asm, method, params, root_seed, space,
                               options["samples"] or RandomOptions().samples,
-                              planner_options=planner_options)
+                              planner_options=planner_options,
+                              constraints=settings.get("constraints"))
     with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
         result = service.run_plan(req, model_path=model_path, address=address, workers=workers,
                                   cache_path=str(cache_path) if cache_path else None)
@@ -256,9 +307,10 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
 
 
 def _show(console, err, asm, result, wall: float, *, out, picture, server, on_ray,
-          cache_path) -> None:
-    """Step 3: the plan's table, ``--out`` and ``--picture``; ``InfeasiblePlan`` (exit 1)
-    without a plan (the ``--out`` document still written for an interlocked assembly)."""
+          cache_path, csv=None) -> None:
+    """Step 3: the plan's table, ``--out``, ``--csv`` and ``--picture``; ``InfeasiblePlan``
+    (exit 1) without a plan (the ``--out`` document still written for an interlocked assembly;
+    no ``--csv``: it has no steps)."""
     from rap.plan.result import PlanStatus
 
     if result.status is PlanStatus.INFEASIBLE:
@@ -273,11 +325,15 @@ def _show(console, err, asm, result, wall: float, *, out, picture, server, on_ra
         console.print(f"planned by the service at {server}", style="dim")
     if out is not None:
         console.print(f"plan written to {write_plan_json(result, out)}")
+    if csv is not None:
+        console.print(f"steps written to {write_plan_csv(result, csv)}")
     if picture is not None:
         from rap.render.pictures import storyboard
 
+        lo_hi = result.robustness_interval
+        ci = "" if lo_hi is None else f" [{lo_hi[0]:.3f}, {lo_hi[1]:.3f}]"
         path = storyboard(asm, result.steps, picture,
-                          title=f"{asm.name}: {result.method}, R = {result.robustness:.3f}")
+                          title=f"{asm.name}: {result.method}, R = {result.robustness:.3f}{ci}")
         console.print(f"storyboard written to {path}")
     if cache_path is not None:
         console.print(f"score cache: {cache_path}", style="dim")
@@ -290,28 +346,38 @@ def _load_cnn(model_path: str):
 
 
 def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, workers, err,
-               options: dict | None = None):
+               options: dict | None = None, constraints=None, progress=None):
     """Plan in this process; simulation batches over ``workers`` forked processes; ``options``:
-    ``make_planner``'s (None: the default)."""
+    ``make_planner``'s (None: the default); ``progress``: an ``Activity`` told what happens."""
     from rap.plan.cache import ScoreCache
     from rap.plan.methods import make_planner
+    from rap.plan.constraints import CellConstraints
     from rap.plan.problem import PlanningProblem
     from rap.plan.local_simulator import LocalSimulator
     from rap.plan.scorers import Scorer
 
     # simulation workers first: they load the simulator while this process loads the model,
     # renders and scores (see LocalSimulator's prestart)
+    if progress is not None:
+        progress.update("starting simulation workers" + (", loading the model" if model_path
+                                                         else ""))
     sim = LocalSimulator(processes=workers, prestart=True)
     try:
         cnn = _load_cnn(model_path) if model_path else None
-        problem = PlanningProblem(asm, params, root_seed, space)
+        problem = PlanningProblem(asm, params, root_seed, space,
+                                  constraints=constraints or CellConstraints())
         if cnn is not None:
             _familiarity(asm, cnn, space, err, problem=problem)
             if sim.prestarted:
                 cnn.cores_busy = sim.loading
         cache_obj = ScoreCache(cache_path)
         planner = make_planner(method, **(options or {}))
-        result = planner.solve(problem, Scorer(sim, cnn, cache_obj))
+        if progress is not None:
+            progress.update("building the NDBG")
+            problem.candidates(problem.whole)  # builds it (once, kept by the problem)
+            progress.update("NDBG built; planning")
+        result = planner.solve(problem, Scorer(sim, cnn, cache_obj, on_progress=None if progress
+                                               is None else progress.scorer_progress))
     finally:
         sim.close()
     cache_obj.flush()

@@ -117,7 +117,7 @@ def plan_rows(result: PlanResult) -> list[dict]:
     for k, s in enumerate(result.steps, 1):
         r, lo_hi = s.robot, s.score_interval
         row = {"step": k, "moving": " ".join(s.moving), "fixed": " ".join(s.fixed),
-               "insertion_x": s.insertion[0], "insertion_y": s.insertion[1],
+               "insertion_x": s.insertion[0] + 0.0, "insertion_y": s.insertion[1] + 0.0,
                "units": result.units, "score": "" if s.score is None else s.score,
                "score_low": "" if lo_hi is None else lo_hi[0],
                "score_high": "" if lo_hi is None else lo_hi[1],

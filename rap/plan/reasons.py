@@ -22,7 +22,9 @@ medians over every operation of the six reference assemblies (``assemblies/*.jso
 space, ``python -m research.benchmarks.reason_typicals`` prints them): a tightness above 1 means
 "tighter than the usual operation". The step's reason names the two tightest quantities, the
 tightest first (ties: in the order above); a step whose range is the whole circle (nothing
-around it) is "free: nothing blocks any direction". Numbers are rounded to 2 significant digits.
+around it) is "free: nothing blocks any direction". Numbers are rounded to 2 significant digits;
+a depth or contact under 1e-6 of the moving extent or perimeter (the descriptors' float noise)
+counts as none.
 
 Floats only (descriptors are floats; the reasons are words). Cost: the descriptors of one
 operation (``DescriptorContext``: one NDBG per assembly, then about 0.3 ms an operation) and one
@@ -48,6 +50,8 @@ TYPICAL = {"margin_deg": 45.0, "clearance": 0.39, "depth": 0.41, "sliding": 0.08
 # and 234 (sliding) operations where the quantity applies
 
 _FREE = "free: nothing blocks any direction"
+#: lengths below this fraction of the moving extent are shapely's float noise, taken as 0
+_NEGLIGIBLE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -97,8 +101,8 @@ def step_quantities(context: DescriptorContext, op: Operation,
     if width >= 2 * math.pi:
         return []
     extent, perimeter = _moving_shape(context, op)
-    depth = d["depth"] * extent
-    sliding = d["sliding_contact"] * perimeter
+    depth = d["depth"] * extent if d["depth"] > _NEGLIGIBLE else 0.0
+    sliding = d["sliding_contact"] * perimeter if d["sliding_contact"] > _NEGLIGIBLE else 0.0
     out = []
     if d["single_direction"]:
         out.append(Quantity("direction range", 0.0, "a single insertion direction", math.inf))

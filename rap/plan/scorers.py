@@ -16,6 +16,10 @@ Backends: a simulator (``SimBackend``: ``simulate_many(problem, ops) -> list[Cac
 or the farm's pool; a CNN (``CnnBackend``), such as ``rap.model.inference.PredictorCnn`` (renders
 each operation and runs the network, in torch or in numpy).
 
+``on_progress(stats, running)``, when given, is called before each simulator batch (``running``:
+its size) and after each batch and CNN call (``running`` 0), with the scorer's counters: what a
+command's progress line shows (``rap.commands._progress``).
+
 ``Budget`` limits a run (simulations, seconds); a scorer raises ``BudgetSpent`` when a call would
 exceed it and the planner reports ``PlanStatus.BUDGET_SPENT``. ``Scorer.fork()`` gives a scorer with
 the same backends and cache and fresh counters (one per request in the planning service).
@@ -32,7 +36,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Protocol, Sequence
+from typing import Callable, Protocol, Sequence
 
 import numpy as np
 
@@ -92,6 +96,11 @@ class Scorer:
     budget: Budget = field(default_factory=Budget)
     stats: ScorerStats = field(default_factory=ScorerStats)
     started: float = field(default_factory=time.perf_counter)
+    on_progress: Callable[[ScorerStats, int], None] | None = field(default=None, repr=False)
+
+    def _progress(self, running: int) -> None:
+        if self.on_progress is not None:
+            self.on_progress(self.stats, running)
 
     def fork(self, budget: Budget | None = None, cache: ScoreCache | None = None) -> "Scorer":
         """Same backends (and cache, unless given), fresh counters and clock."""
@@ -123,6 +132,7 @@ class Scorer:
             b = self.budget
             if b.max_simulations is not None and st.sim_run + len(missing) > b.max_simulations:
                 raise BudgetSpent(f"simulation budget of {b.max_simulations} spent")
+            self._progress(len(missing))
             t = time.perf_counter()
             fresh = self.simulator.simulate_many(problem, list(missing.values()))
             st.sim_seconds += time.perf_counter() - t
@@ -133,6 +143,7 @@ class Scorer:
             new = dict(zip(missing, fresh))
             self.cache.put_many(new.items())
             found = [c if c is not None else new[k] for k, c in zip(keys, found)]
+        self._progress(0)
         return found  # type: ignore[return-value]
 
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
@@ -160,6 +171,7 @@ class Scorer:
         self.stats.cnn_seconds += time.perf_counter() - t
         self.stats.cnn_batches += 1
         self.stats.cnn_ops += len(ops)
+        self._progress(0)
         out = tuple(np.asarray(x, dtype=np.float64) for x in
                     (got if isinstance(got, tuple) else (got,)))
         if any(x.shape != (len(ops),) for x in out):

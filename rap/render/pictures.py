@@ -123,7 +123,8 @@ def assembly_figure(assembly: Assembly, cells: Sequence, counts: Sequence[int], 
     _frame(axc, (-1.1, -1.1, 1.1, 1.1), pad=0.05)
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0, top))
     fig.colorbar(sm, ax=axc, fraction=0.046, pad=0.04, label="partitions of the whole admitted")
-    axc.set_title(f"NDBG: {len(vert)} vertices, {n - len(vert)} arcs (removal directions)")
+    axc.set_title(f"NDBG: {len(vert)} vertices, {n - len(vert)} arcs\n(removal directions; "
+                  f"removal = -insertion)")
     return save_figure(fig, path)
 
 
@@ -132,8 +133,9 @@ def storyboard(assembly: Assembly, steps: Sequence, path: str | Path, title: str
     """One panel per assembly step: parts already placed, the moving subassembly drawn at a
     distance back along its motion (dashed) and in place, an arrow of motion and the score.
 
-    ``steps``: objects with ``moving``, ``fixed`` (id collections), ``direction`` (unit vector
-    the moving subassembly travels along to its place), ``score`` (float or None) and ``source``.
+    ``steps``: objects with ``moving``, ``fixed`` (id collections), ``direction`` (the insertion:
+    unit vector the moving subassembly travels along to its place), ``score`` (float or None),
+    ``source`` and optionally ``score_interval`` (shown after the score).
     Steps whose score is below ``robust_threshold`` are marked in red.
     """
     k = len(steps)
@@ -161,6 +163,8 @@ def storyboard(assembly: Assembly, steps: Sequence, path: str | Path, title: str
                     arrowprops=dict(arrowstyle="-|>", color="black", linewidth=1.5))
         bad = st.score is not None and st.score < robust_threshold
         score = "?" if st.score is None else f"{st.score:.2f}"
+        lo_hi = getattr(st, "score_interval", None)  # the step's 95% interval, when known
+        score += "" if lo_hi is None else f" ({lo_hi[0]:.2f}-{lo_hi[1]:.2f})"
         src = f" [{st.source}]" if getattr(st, "source", None) else ""
         ax.set_title(f"step {idx + 1}: r = {score}{src}" + ("  NOT ROBUST" if bad else ""),
                      fontsize=9, color="crimson" if bad else "black")
