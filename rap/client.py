@@ -56,10 +56,11 @@ def exact_json(value: Any) -> str:
 
 
 def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
-              options: dict | None = None) -> bytes:
+              options: dict | None = None, constraints=None) -> bytes:
     """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``) or a
     drawing (.dxf, .svg: imported with the default options, as ``load_assembly`` does);
-    ``options``: the method's planner options (``rap.farm.api.PLANNER_OPTIONS``), those not None."""
+    ``options``: the method's planner options (``rap.farm.api.PLANNER_OPTIONS``), those not None;
+    ``constraints``: the cell's ``rap.plan.constraints.CellConstraints`` (sent when active)."""
     path = Path(assembly_path)
     if path.suffix.lower() in (".dxf", ".svg"):  # a drawing: sent as the assembly it imports to
         from rap.io import assembly_to_json, load_assembly
@@ -78,6 +79,8 @@ def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
     options = {k: v for k, v in (options or {}).items() if v is not None}
     if options:
         body["options"] = options
+    if constraints is not None and constraints.active:
+        body["constraints"] = constraints.to_json()
     return exact_json(body).encode("utf-8")
 
 

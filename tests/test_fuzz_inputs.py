@@ -62,7 +62,7 @@ def test_a_hostile_file_is_read_or_refused_in_one_line(text):
 @given(body=plan_bodies())
 def test_a_hostile_request_is_parsed_or_refused_with_a_4xx(body):
     try:
-        assembly, method, seed, options = parse_plan_request(body)
+        assembly, method, seed, options, _ = parse_plan_request(body)
     except BadRequest as exc:
         assert exc.status in (400, 413), (exc.status, exc.message)
         _one_line(exc.message)

@@ -11,12 +11,15 @@ service answers 503 (``rap.farm.serve`` runs both off its event loop).
 ``ServeConfig`` holds every setting of ``rap-farm serve`` (``check()`` refuses, in one line, what
 must not start: a non-loopback host without a bearer token, a short token, a bad port).
 ``parse_plan_request(body)`` turns a ``POST /plan`` body into ``(assembly, method, root seed,
-planner options)`` or raises ``BadRequest(status, one line)``; the options (``PLANNER_OPTIONS``)
+planner options, cell constraints)`` or raises ``BadRequest(status, one line)``; the options (``PLANNER_OPTIONS``)
 are those of ``rap-farm plan`` for the method asked for (search: ``simulations``, at most
 ``max_simulations``, ``trust``, ``optimism``, ``beam_width``; rap: ``fallback_k``,
 ``high_probability``, ``fallback_optimism``); numbers are parsed as decimals, exactly as
 ``rap.io.load_assembly`` reads a file, and an invalid assembly gets the CLI's
-``AssemblyError`` text with ``assembly`` as its source. ``read_upload(name, body)`` reads an
+``AssemblyError`` text with ``assembly`` as its source. The optional ``constraints`` object is the
+robot cell's (``rap.plan.constraints.CellConstraints.from_json``: ``{"base": "plate", "linear":
+true, "directions": ["0,-1:30"], "gravity": "0,-1", "friction": 0.5}``), checked as the CLI's
+flags are (one-line 400 naming ``constraints.KEY``; the base must be a part of the assembly). ``read_upload(name, body)`` reads an
 uploaded file (``POST /import``, ``/inspect``): a drawing (.dxf, .svg) or an assembly file (.json),
 written under its own name in a temporary directory and read by ``rap.io.load_assembly``, which
 chooses the reader by the suffix; its errors name the file as the client did. ``rap.farm.serve``
@@ -36,6 +39,7 @@ from pathlib import Path
 from rap.assembly import LIMITS, Assembly, AssemblyError, json_error_reason
 from rap.io import load_assembly, parse_assembly
 from rap.errors import InputError, ParameterError
+from rap.plan.constraints import CellConstraints
 from rap.plan.methods import DEFAULT_METHOD, METHODS, service_options
 from rap.seeds import DEFAULT_ROOT_SEED
 
@@ -43,7 +47,7 @@ __all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "read_upload", "is
            "PLAN_BODY_OPENAPI", "UPLOAD_OPENAPI", "UPLOAD_NAME_HELP",
            "REQUEST_KEYS", "DETAILS_HEADER", "PLANNER_OPTIONS", "UPLOAD_SUFFIXES"]
 
-REQUEST_KEYS = ("assembly", "method", "seed", "options")
+REQUEST_KEYS = ("assembly", "method", "seed", "options", "constraints")
 # option -> (methods it applies to, kind, low, high, low inclusive): make_planner's keywords, as
 # the methods declare them (rap.plan.methods), for the API's schema
 PLANNER_OPTIONS = {name: (methods, opt.kind, opt.low, opt.high, not opt.low_open)
@@ -150,10 +154,19 @@ def _planner_options(raw, method: str, max_simulations: int) -> dict:
     return out
 
 
+def _constraints(raw) -> CellConstraints:
+    """The request's ``constraints`` object, or a one-line 400 naming ``constraints.KEY``."""
+    try:
+        return CellConstraints.from_json(raw)
+    except ParameterError as exc:
+        name = "constraints" if exc.parameter == "constraints" else f"constraints.{exc.parameter}"
+        raise BadRequest(400, exc.for_name(name)) from None
+
+
 def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: int = 16,
                        max_simulations: int = 2000, max_vertices: int = 20_000):
-    """(assembly, method, root seed, planner options) of a ``POST /plan`` body, or
-    ``BadRequest``."""
+    """(assembly, method, root seed, planner options, ``CellConstraints``) of a ``POST /plan``
+    body, or ``BadRequest``."""
     try:
         doc = json.loads(body, parse_float=Decimal, parse_int=int,
                          parse_constant=_reject_constant)
@@ -168,7 +181,7 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
     unknown = sorted(set(doc) - set(REQUEST_KEYS))
     if unknown:
         raise BadRequest(400, f"unknown key {unknown[0]!r} (expected assembly, method, seed, "
-                              f"options)")
+                              f"options, constraints)")
     if "assembly" not in doc:
         raise BadRequest(400, "missing key 'assembly' (the assembly JSON object)")
     method = doc.get("method", DEFAULT_METHOD)
@@ -178,6 +191,7 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
     if isinstance(seed, bool) or not isinstance(seed, int) or not -(1 << 63) <= seed < (1 << 63):
         raise BadRequest(400, f"seed {seed!r}: must be an integer in [-2^63, 2^63)")
     options = _planner_options(doc.get("options", {}), method, max_simulations)
+    constraints = _constraints(doc.get("constraints", {}))
     raw = doc["assembly"]
     if isinstance(raw, dict) and isinstance(raw.get("parts"), list) and len(raw["parts"]) > max_parts:
         raise BadRequest(413, f"assembly: {len(raw['parts'])} parts; this service plans at most "
@@ -192,7 +206,11 @@ def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: i
     if method == "optimal" and len(assembly) > max_optimal_parts:
         raise BadRequest(413, f"method 'optimal': {len(assembly)} parts; this service finds the "
                               f"optimum for at most {max_optimal_parts} (ask for rap or sim)")
-    return assembly, method, int(seed), options
+    try:
+        constraints.check(assembly)
+    except ParameterError as exc:
+        raise BadRequest(400, exc.for_name("constraints.base")) from None
+    return assembly, method, int(seed), options, constraints
 
 
 def _upload_name(name: str | None) -> str:
@@ -253,7 +271,19 @@ PLAN_BODY_OPENAPI = {
                             "fallback_k, high_probability, fallback_optimism), e.g. {\"simulations\": 200, "
                             "\"optimism\": 0.1}",
                             "properties": {k: {"type": "integer" if kind is int else "number"}
-                                           for k, (_, kind, *_rest) in PLANNER_OPTIONS.items()}}}}}},
+                                           for k, (_, kind, *_rest) in PLANNER_OPTIONS.items()}},
+                "constraints": {
+                    "type": "object", "additionalProperties": False,
+                    "description": "The robot cell's constraints, as `rap-farm plan`'s --base, "
+                    "--linear, --directions, --gravity, --friction, e.g. {\"base\": \"plate\", "
+                    "\"linear\": true, \"directions\": [\"0,-1:30\"], \"gravity\": \"0,-1\"}",
+                    "properties": {
+                        "base": {"type": "string", "description": "Part fixed in the fixture"},
+                        "linear": {"type": "boolean", "description": "One part per step"},
+                        "directions": {"type": "array", "items": {"type": "string"},
+                                       "description": "Insertion cones DX,DY:DEG"},
+                        "gravity": {"type": "string", "description": "DX,DY; needs base"},
+                        "friction": {"type": "number", "minimum": 0, "default": 0.5}}}}}}},
     },
     "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document)"},
                   "400": {"description": "Malformed request or invalid assembly"},

@@ -18,7 +18,8 @@ offline):
   actor has started (before that, Serve answers 503 or the connection is refused).
 * ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
   "random"|"search" (default "search"), "seed": <int> (optional), "options": {...} (optional: the
-  method's planner options, ``rap.farm.api.PLANNER_OPTIONS``)}``. 200 with exactly the document that
+  method's planner options, ``rap.farm.api.PLANNER_OPTIONS``), "constraints": {...} (optional: the
+  robot cell's, ``rap.plan.constraints.CellConstraints.from_json``)}``. 200 with exactly the document that
   ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
   ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
   or ``"feasible": null`` when the request's budget (simulations, seconds) ran out. The header
@@ -261,10 +262,11 @@ class PlanningApp:
                                     f"within {budget:g} s; send a smaller one", f"reading {what}",
                                     fn, *args, body)
 
-    def _plan(self, assembly, method: str, seed: int, options: dict):
+    def _plan(self, assembly, method: str, seed: int, options: dict, constraints=None):
         from rap.farm.service import PlanRequest
 
         req = PlanRequest(assembly, method, self.params, seed, planner_options=options,
+                          constraints=constraints,
                           budget=Budget(max_simulations=self.config.max_simulations,
                                         max_seconds=self.config.plan_budget_s))
         result = self.service.plan(req)
@@ -303,12 +305,12 @@ class PlanningApp:
         read = await self._read_request(request, creds, "the assembly", self._read)
         if isinstance(read, JSONResponse):
             return read
-        assembly, method, seed, options = read
+        assembly, method, seed, options, constraints = read
         result = await self._off_loop(
             self._executor, self.config.plan_budget_s + self.config.answer_grace_s,
             f"planning took longer than its budget of {self.config.plan_budget_s:g} s; ask with "
             f"fewer simulations", f"planning {assembly.name} with {method}", self._plan, assembly,
-            method, seed, options)
+            method, seed, options, constraints)
         if isinstance(result, JSONResponse):
             return result
         self.served += 1

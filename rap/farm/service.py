@@ -41,6 +41,7 @@ from rap.model.inference import PredictorCnn
 from rap.operation import Operation
 from rap.plan.cache import CachedScore, ScoreCache
 from rap.plan.local_simulator import LocalSimulator
+from rap.plan.constraints import CellConstraints
 from rap.plan.methods import make_planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanResult
@@ -124,6 +125,7 @@ class PlanRequest:
     budget: Budget = field(default_factory=Budget)
     cold: bool = False
     planner_options: dict = field(default_factory=dict)  # make_planner's keyword options
+    constraints: Any = None  # rap.plan.constraints.CellConstraints; None: none
 
 
 class PlanningService:
@@ -173,7 +175,8 @@ class PlanningService:
             from rap.sim.params import SimParams
 
             params = request.params if request.params is not None else SimParams()
-            problem = PlanningProblem(request.assembly, params, request.root_seed, request.space)
+            problem = PlanningProblem(request.assembly, params, request.root_seed, request.space,
+                                      constraints=request.constraints or CellConstraints())
             cache = ScoreCache() if request.cold else None
             scorer = self.base.fork(budget=request.budget, cache=cache)
             t = time.perf_counter()

@@ -131,6 +131,8 @@ def blocked_by(problem, subset) -> tuple[frozenset, str]:
         return culprit, interlocked_message(name, culprit)
     rules = c.rules()
     freeing = [r for r in rules if constrained_candidates(problem, subset, c.relaxed(r))]
+    if "gravity" in freeing and "base" in freeing:
+        freeing.remove("base")  # lifting the base lifts gravity too: gravity is the one to name
     parts = "{" + ",".join(sorted(subset)) + "}"
     head = f"no sequence satisfies the cell's constraints: the subassembly {parts} cannot be built"
     if len(freeing) == 1:

@@ -31,7 +31,7 @@ tipping, sliding or the arm's reach (``SCORE_NOTE``, in the plan's ``stats`` wit
 "gravity": "0,-1", "friction": 0.5}``); both raise ``rap.errors.ParameterError`` naming the
 parameter (``base``, ``directions``, ``gravity``, ``friction``). ``check(assembly)`` checks that
 the base part exists. Numbers are decimals or fractions of at most ``MAX_NUMBER_CHARS``
-characters, read exactly. No ray, no torch.
+characters, read exactly; at most ``MAX_CONES`` cones. No ray, no torch.
 """
 
 from __future__ import annotations
@@ -45,9 +45,11 @@ from typing import Iterable, Sequence
 from rap.errors import ParameterError
 from rap.geometry.cones import Arc, cone_arc
 
-__all__ = ["Cone", "CellConstraints", "SCORE_NOTE", "MAX_NUMBER_CHARS", "vector_text"]
+__all__ = ["Cone", "CellConstraints", "SCORE_NOTE", "MAX_NUMBER_CHARS", "MAX_CONES",
+           "vector_text"]
 
 MAX_NUMBER_CHARS = 32
+MAX_CONES = 16  # --directions given at most this often (the intersection costs O(cones^2))
 SCORE_NOTE = ("robustness scores come from the simulator without gravity (parts lying flat): "
               "they cover the insertion motion under actuation noise, not tipping, sliding or "
               "the arm's reach")
@@ -174,7 +176,11 @@ class CellConstraints:
         parameter (``base``, ``directions``, ``gravity``, ``friction``)."""
         if base is not None and (not isinstance(base, str) or not base):
             raise ParameterError("base", base, "name a part of the assembly")
-        cones = tuple(Cone.parse(t) for t in (directions or ()))
+        directions = list(directions or ())
+        if len(directions) > MAX_CONES:
+            raise ParameterError("directions", len(directions), f"at most {MAX_CONES} cones",
+                                 quote=False)
+        cones = tuple(Cone.parse(t) for t in directions)
         g = None if gravity is None else _vector(gravity, "gravity")
         if friction is not None and g is None:
             raise ParameterError("friction", friction, "applies only with --gravity")

@@ -135,7 +135,7 @@ def test_the_request_body_for_a_drawing_is_its_imported_assembly(tmp_path):
     from rap.farm.api import parse_plan_request
     path = F.dxf_seven(tmp_path)
     body = plan_body(path, "sim", seed=3)
-    assembly, method, seed, options = parse_plan_request(body)
+    assembly, method, seed, options, _ = parse_plan_request(body)
     imported = load_assembly(path)
     assert (method, seed, options) == ("sim", 3, {})
     assert assembly.geometry_hash == imported.geometry_hash and assembly.ids == imported.ids

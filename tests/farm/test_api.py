@@ -19,17 +19,17 @@ SQUARES = {"name": "two", "parts": [{"id": "a", "polygon": [[0, 0], [1, 0], [1, 
 def test_a_request_is_read_exactly():
     text = ('{"assembly": {"parts": [{"id": "a", "polygon": [[0, 0], [0.1, 0], [0.1, 1], [0, 1]]},'
             '{"id": "b", "polygon": [[0.1, 0], [0.3, 0], [0.3, 1], [0.1, 1]]}]}, "seed": -4}')
-    asm, method, seed, options = parse_plan_request(text.encode())
+    asm, method, seed, options, _ = parse_plan_request(text.encode())
     assert (asm.name, method, seed) == ("assembly", "search", -4)  # the default method
     assert str(asm.part("a").outer[1][0]) == "1/10"  # a decimal, not the float 0.1
-    asm, method, seed, options = parse_plan_request(json.dumps({"assembly": SQUARES,
+    asm, method, seed, options, _ = parse_plan_request(json.dumps({"assembly": SQUARES,
                                                                 "method": "optimal"}).encode())
     assert (asm.name, method, seed, options) == ("two", "optimal", DEFAULT_ROOT_SEED, {})
 
 
 def test_planner_options_are_read_for_their_method():
     body = {"assembly": SQUARES, "options": {"simulations": 200, "optimism": 0.1, "trust": 1}}
-    _, method, _, options = parse_plan_request(json.dumps(body).encode())
+    _, method, _, options, _ = parse_plan_request(json.dumps(body).encode())
     assert method == "search" and options == {"simulations": 200, "optimism": 0.1, "trust": 1.0}
     assert all(type(options[k]) is float for k in ("optimism", "trust"))
     body = {"assembly": SQUARES, "method": "rap",

@@ -99,7 +99,7 @@ def test_the_toy_planner_through_make_planner_and_the_experiment_names(first):
 
 def test_the_service_takes_the_toy_method_and_its_option(first):
     body = {"assembly": ROW3, "method": "first", "options": {"pick": 2}}
-    _, method, _, options = parse_plan_request(json.dumps(body).encode())
+    _, method, _, options, _ = parse_plan_request(json.dumps(body).encode())
     assert (method, options) == ("first", {"pick": 2})
     body["options"] = {"pick": -1}
     with pytest.raises(BadRequest, match=r"options.pick -1: must be >= 0") as err:
