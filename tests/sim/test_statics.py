@@ -1,0 +1,101 @@
+"""Static equilibrium under gravity (rap.sim.statics): known answers on small cells, the arch's
+facts, and agreement with the independent settling simulation (rap.sim.settling)."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+
+from rap.sim.settling import settle
+from rap.sim.statics import Support, check_static
+from tests.sim.cells import (AGREEMENT, ARCH, CANTILEVER, CENTRING, DOWN, OVERHANG, SLOPE, STACK,
+                             WALL, wall_bricks)
+
+
+def test_base_alone_is_stable():
+    assert check_static(STACK, ["plate"], "plate", DOWN) == Support(True)
+
+
+def test_stack_builds_bottom_up_only():
+    blocks = ["block1", "block2", "block3"]
+    for order in itertools.permutations(blocks):
+        ok = all(check_static(STACK, ["plate", *order[:k]], "plate", DOWN).stable
+                 for k in range(1, 4))
+        assert ok == (list(order) == blocks), order
+    got = check_static(STACK, ["plate", "block1", "block3"], "plate", DOWN)
+    assert not got.stable and "'block3'" in got.reason and "touches no other part" in got.reason
+
+
+def test_cut_off_parts_are_named():
+    got = check_static(STACK, ["plate", "block2", "block3"], "plate", DOWN)
+    assert not got.stable
+    assert "'block2', 'block3'" in got.reason and "nothing connected to the base" in got.reason
+
+
+@pytest.mark.parametrize("friction,stable", [(0.2, False), (0.45, False), (0.55, True),
+                                             (1.0, True)])
+def test_block_on_slope_slides_below_the_friction_angle(friction, stable):
+    # the slope's tangent is 0.5
+    got = check_static(SLOPE, SLOPE.ids, "wedge", DOWN, friction=friction)
+    assert got.stable == stable
+    if not stable:
+        assert "'block'" in got.reason and "slide or tip" in got.reason
+
+
+def test_cantilever_tips_once_its_centroid_overhangs():
+    assert check_static(CANTILEVER, ["plate", "short"], "plate", DOWN).stable
+    got = check_static(CANTILEVER, ["plate", "long"], "plate", DOWN, friction=10.0)
+    assert not got.stable and "'long'" in got.reason
+    got = check_static(OVERHANG, OVERHANG.ids, "plate", DOWN)
+    assert not got.stable and "'high'" in got.reason and "'low'" not in got.reason
+
+
+def test_arch_stands_only_with_its_keystone():
+    assert check_static(ARCH, ARCH.ids, "ground", DOWN).stable
+    for voussoir in ("left", "right"):
+        got = check_static(ARCH, ["ground", voussoir], "ground", DOWN)
+        assert not got.stable and repr(voussoir) in got.reason
+    assert not check_static(ARCH, ["ground", "left", "right"], "ground", DOWN).stable
+    # no one-part-at-a-time order keeps every intermediate stable
+    for order in itertools.permutations(["left", "right", "keystone"]):
+        assert not all(check_static(ARCH, ["ground", *order[:k]], "ground", DOWN).stable
+                       for k in range(1, 4))
+
+
+def test_arch_on_its_centring_builds_bottom_up():
+    for first, second in (("left", "right"), ("right", "left")):
+        for k in range(4):
+            ids = ["centring", first, second, "keystone"][:k + 1]
+            assert check_static(CENTRING, ids, "centring", DOWN).stable, ids
+            assert settle(CENTRING, ids, "centring", DOWN).stable, ids
+
+
+def test_wall_builds_course_by_course():
+    bricks = wall_bricks()
+    for k in range(len(bricks) + 1):
+        assert check_static(WALL, ["plate", *bricks[:k]], "plate", DOWN).stable, bricks[:k]
+    got = check_static(WALL, ["plate", "c1_b2"], "plate", DOWN)
+    assert not got.stable and "'c1_b2'" in got.reason
+
+
+def test_memoised_and_arguments_checked():
+    first = check_static(WALL, WALL.ids, "plate", DOWN)
+    assert check_static(WALL, list(reversed(WALL.ids)), "plate", DOWN) is first
+    assert check_static(WALL, WALL.ids, "plate", (0, -9.81)).stable  # magnitude is irrelevant
+    with pytest.raises(ValueError, match="base"):
+        check_static(WALL, ["c0_b0"], "plate", DOWN)
+    with pytest.raises(ValueError, match="gravity"):
+        check_static(WALL, WALL.ids, "plate", (0, 0))
+    with pytest.raises(ValueError, match="friction"):
+        check_static(WALL, WALL.ids, "plate", DOWN, friction=-1)
+    with pytest.raises(KeyError):
+        check_static(WALL, ["plate", "nope"], "plate", DOWN)
+
+
+@pytest.mark.parametrize("case", AGREEMENT, ids=[c[0] for c in AGREEMENT])
+def test_agrees_with_settling(case):
+    _, asm, ids, base, gravity, friction, stable = case
+    assert check_static(asm, ids, base, gravity, friction).stable == stable
+    got = settle(asm, ids, base, gravity, friction=friction)
+    assert got.stable == stable, got
