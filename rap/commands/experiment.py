@@ -43,6 +43,17 @@ def experiment_command(
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation actors [default: all CPUs]."),
     start_timeout: float = typer.Option(120.0, "--start-timeout", min=1.0,
                                         help="Seconds the simulation actors may take to start."),
+    # the robot cell's constraints, for every assembly and method (as rap-farm plan's)
+    base: str = typer.Option(None, "--base", help="Part fixed in the fixture (in every "
+                             "assembly): it never moves."),
+    linear: bool = typer.Option(False, "--linear", help="One arm: every step moves one part."),
+    directions: list[str] = typer.Option(None, "--directions", help="DX,DY:DEG: insertion "
+                                         "directions within DEG degrees of (DX,DY) "
+                                         "(repeatable)."),
+    gravity: str = typer.Option(None, "--gravity", help="DX,DY: gravity in the plane (needs "
+                                "--base): every intermediate assembly statically stable."),
+    friction: float = typer.Option(None, "--friction", help="Coulomb friction with --gravity "
+                                   "[default: 0.5]."),
 ):
     """Compare RAP, sim-only, optimal and random planning on every assembly (paper, section 8)."""
     from rap.io import load_assembly
@@ -52,6 +63,11 @@ def experiment_command(
                                      run_experiment)
     from rap.plan.experiment_report import write_report
 
+    from rap.commands._flags import flags
+    from rap.plan.constraints import CellConstraints
+
+    with flags("base", "linear", "directions", "gravity", "friction"):
+        cell = CellConstraints.parse(base, linear, directions, gravity, friction)
     if not (Path(dataset) / "_rapfarm.json").is_file():
         raise InputError(f"{dataset}: not a rap-farm dataset (no _rapfarm.json)")
     wanted = [m.strip() for m in methods.split(",") if m.strip()]
@@ -76,6 +92,9 @@ def experiment_command(
             raise InputError(f"--assemblies {', '.join(map(str, assemblies))}: {n}.json is missing")
         files.append(found[0])
     asms = [load_assembly(f) for f in files]
+    with flags("base"):
+        for a in asms:
+            cell.check(a)
     out = out or Path("reports") / Path(dataset).resolve().name
     if model is not None:
         if not Path(model).is_file():
@@ -103,13 +122,17 @@ def experiment_command(
             pool.ready(start_timeout)
             rows = run_experiment(dataset, asms, sim_backend=service.PoolSimulator(pool),
                                   models_dir=models, epochs=epochs, trials=trials,
-                                  methods=wanted, log=log, model=model)
+                                  methods=wanted, log=log, model=model, constraints=cell)
         finally:
             pool.shutdown()
     notes = {"dataset": str(dataset), "simulation workers": workers or rt.cpus,
              "models": (f"{model} for every assembly" if model is not None
                         else f"hold-out models from {models}"),
              "methods": ", ".join(wanted), "timing": "each method's search with a cold score cache"}
+    if cell.active:
+        from rap.plan.constraints import SCORE_NOTE
+
+        notes["cell constraints"] = f"{cell.describe()} ({SCORE_NOTE})"
     paths = write_report(rows, out, f"Planning experiment on {Path(dataset).name}", notes)
     typer.echo((Path(out) / "results.md").read_text())
     for p in paths:

@@ -11,6 +11,10 @@ dataset's simulator parameters and root seed (so the simulator's scores are the 
 * the returned sequence is then evaluated by the simulator (``robustness`` R); for ``random`` the
   figure is the mean R over ``samples`` random sequences.
 
+With ``constraints`` (``rap.plan.constraints.CellConstraints``: fixture, one arm, insertion cones,
+gravity) every method plans under the same robot-cell constraints; the base must be a part of
+every assembly.
+
 Methods are named as in the report's tables: a method of ``rap.plan.methods`` with its options'
 codes (``rap-k2-p90``, ``search-s200-o10``) or a preset (``rap-paper``): ``method_planner``.
 
@@ -30,6 +34,7 @@ from typing import Callable, Sequence
 from rap.errors import InputError, ParameterError
 from rap.model.inference import PredictorCnn
 from rap.plan.cache import ScoreCache
+from rap.plan.constraints import CellConstraints
 from rap.plan.methods import from_table_name, needs_model
 from rap.plan.planners import Planner
 from rap.plan.problem import PlanningProblem
@@ -122,13 +127,19 @@ def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: Si
                    log: Callable[[str], None] = print, model: str | Path | None = None,
                    load_model: Callable = PredictorCnn.load,
                    holdout: Callable[..., Path] = holdout_model,
-                   planner: Callable[[str, int], Planner] = method_planner) -> list[ExperimentRow]:
+                   planner: Callable[[str, int], Planner] = method_planner,
+                   constraints: CellConstraints | None = None) -> list[ExperimentRow]:
     """Plan every assembly (``rap.assembly.Assembly`` objects named as in the dataset) with every
     method; see the module doc. ``trials`` overrides the dataset's trials per operation. With
     ``model``, that checkpoint scores every assembly (none of which it may have been trained on:
     ``check_held_out``) instead of one hold-out model per assembly, ``holdout(dataset, name,
     models_dir, epochs, log, family=...)``. ``load_model(path)`` reads a checkpoint;
-    ``planner(method, samples)`` makes a method's planner, once per plan."""
+    ``planner(method, samples)`` makes a method's planner, once per plan; ``constraints``: the
+    robot cell's (None: none; ``ParameterError`` for parameter ``base`` when an assembly lacks
+    the base part)."""
+    constraints = constraints or CellConstraints()
+    for asm in assemblies:
+        constraints.check(asm)
     params, root_seed = dataset_params(dataset)
     if trials is not None:
         params = params.with_(trials=int(trials))
@@ -150,15 +161,15 @@ def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: Si
             cnn = load_model(model_path)
         for method in methods:
             rows.append(_plan_one(asm, method, params, root_seed, sim_backend, cnn, model_path,
-                                  planner(method, samples), log))
+                                  planner(method, samples), log, constraints))
     return rows
 
 
 def _plan_one(asm, method: str, params, root_seed: int, sim_backend, cnn, model_path, planner,
-              log) -> ExperimentRow:
+              log, constraints: CellConstraints = CellConstraints()) -> ExperimentRow:
     """One assembly planned by one method with a cold score cache, as a row."""
     cnn_method = needs_model(method)
-    problem = PlanningProblem(asm, params, root_seed, "online")
+    problem = PlanningProblem(asm, params, root_seed, "online", constraints=constraints)
     scorer = Scorer(sim_backend, cnn if cnn_method else None, ScoreCache())  # cold
     if cnn_method:  # warm the CNN and renderer up once (imports, first-call costs)
         scorer.cnn.prob_high(problem, list(problem.candidates(problem.whole))[:1])
