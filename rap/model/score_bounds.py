@@ -14,7 +14,8 @@ smallest of the ``n`` residuals of ``p``'s bin: for an operation exchangeable wi
 calibration operations, ``P(s <= upper) >= level`` (split conformal's finite-sample guarantee;
 the bin edges come from the same data, a common approximation). A bin with too few residuals for
 the level (``ceil((n + 1) level) > n``, i.e. ``n < level / (1 - level)``: 19 at 0.95, 199 at
-0.995) bounds by 1, the trivial bound; ``min_count(level)`` says how many are needed.
+0.995; every bin at level 1) bounds by 1, the trivial bound; ``min_count(level)`` says how many
+are needed.
 
 Special bounds: ``ScoreBounds.trivial()`` (no calibration: every operation bounded by 1; what
 ``load()`` gives when the shipped file is absent, with a note in ``provenance``) and
@@ -55,8 +56,8 @@ _ROUND = 1e6  # residuals are stored rounded up to 1e-6
 
 def _check_level(level: float) -> float:
     level = float(level)
-    if not 0.0 < level < 1.0:
-        raise ValueError(f"level {level!r}: choose a number in (0, 1)")
+    if not 0.0 < level <= 1.0:
+        raise ValueError(f"level {level!r}: choose a number in (0, 1]")
     return level
 
 
@@ -67,9 +68,11 @@ def _rank(n: int, level: float) -> int:
 
 
 def min_count(level: float) -> int:
-    """The fewest residuals a bin needs for a bound below 1 at ``level``: the least ``n`` with
-    ``ceil((n + 1) level) <= n``."""
+    """The fewest residuals a bin needs for a bound below 1 at ``level`` in (0, 1): the least
+    ``n`` with ``ceil((n + 1) level) <= n``."""
     level = _check_level(level)
+    if level == 1.0:
+        raise ValueError("level 1: no number of residuals bounds below 1")
     n = max(1, math.floor(level / (1.0 - level)) - 1)
     while _rank(n, level) > n:
         n += 1

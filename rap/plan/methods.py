@@ -23,7 +23,8 @@ from rap.errors import ParameterError
 from rap.plan.options import Option, PlannerOptions, option
 from rap.plan.planners import (HIGH_PROBABILITY, OptimalPlanner, Planner, RandomPlanner,
                                RapPlanner, SimPlanner)
-from rap.plan.search import DEFAULT_BEAM, DEFAULT_MAX_OPERATIONS, SearchPlanner
+from rap.plan.search import (DEFAULT_BEAM, DEFAULT_CONFIDENCE, DEFAULT_MAX_OPERATIONS,
+                             SearchPlanner)
 
 __all__ = ["METHODS", "DEFAULT_METHOD", "make_planner", "register", "unregister",
            "method_options", "needs_model", "check_options", "from_table_name", "option_named",
@@ -141,6 +142,22 @@ class SearchOptions(PlannerOptions):
         help="Method {method} with {simulations}: an operation not simulated counts as p + "
              "OPTIMISM (1 - p) while choosing, so alternatives the model may underrate get "
              "simulated (0: the model as is; 1: the optimum, simulations permitting)")
+    upper: float = option(
+        float, 0.0, low=0.0, high=1.0, code="u", code_name="U", percent=True,
+        help="Method {method} with {simulations}: an operation not simulated counts as p + UPPER "
+             "(u - p) while choosing, u its upper bound at {confidence} (the larger of this and "
+             "{optimism}'s; 1: branch and bound, stopping when no sequence left can beat the "
+             "best simulated one)")
+    confidence: float = option(
+        float, DEFAULT_CONFIDENCE, low=0.0, high=1.0, low_open=True, noun="a probability",
+        code="c", code_name="P", percent=True,
+        help="Method {method}: the confidence of the bound on the optimum reported with the "
+             "plan (each of a sequence's n - 1 steps bounded at 1 - (1 - P) / (n - 1))")
+    gap: float | None = option(
+        float, None, low=0.0, high=1.0, noun="a fraction", code="g", code_name="G",
+        percent=True, default_help="off",
+        help="Method {method} with {simulations}: stop when the best simulated sequence is "
+             "within GAP of the bound on the optimum (0.05: 5%)")
     beam_width: int = option(int, DEFAULT_BEAM, low=1, code="w", code_name="W",
                              help="Method {method}: beam width beyond the exact search's budget")
     max_operations: int = option(

@@ -174,7 +174,9 @@ class PlanResult:
     ``eval_seconds``: time to evaluate it with the simulator afterwards (0 when every step's score
     was already known); ``stats``: counters (CNN batches, simulations, cache hits, fallbacks, ...);
     ``units``: the assembly's units; ``trials``: simulator trials behind each score;
-    ``robustness_interval``: R's interval at ``confidence_level`` (``rap.plan.score_intervals``)."""
+    ``robustness_interval``: R's interval at ``confidence_level`` (``rap.plan.score_intervals``);
+    ``bound``: an upper bound on the optimum's robustness, with its confidence and the plan's gap
+    to it (methods that bound; ``rap.plan.bound_search.report``), else None (no key in JSON)."""
 
     status: PlanStatus
     method: str
@@ -190,6 +192,7 @@ class PlanResult:
     trials: int | None = None
     robustness_interval: tuple[float, float] | None = None
     confidence_level: float | None = None
+    bound: dict | None = None  # the optimum's upper bound (rap.plan.bound_search.report)
 
     @property
     def found(self) -> bool:
@@ -215,7 +218,9 @@ class PlanResult:
                            seconds=float(doc["seconds"]), units=str(doc.get("units", "unit")),
                            trials=None if trials is None else int(trials),
                            robustness_interval=None if r_lo_hi is None else _pair(r_lo_hi),
-                           confidence_level=None if level is None else float(level), **common)
+                           confidence_level=None if level is None else float(level),
+                           bound=None if doc.get("bound") is None else dict(doc["bound"]),
+                           **common)
             if feasible is False:
                 parts = tuple(map(str, doc["interlocked"]))
                 return cls(PlanStatus.INFEASIBLE, interlocked=parts,
@@ -233,7 +238,8 @@ class PlanResult:
                     "robustness_interval": None if self.robustness_interval is None
                     else list(self.robustness_interval),
                     "confidence_level": self.confidence_level, "trials": self.trials,
-                    "steps": [s.to_json() for s in self.steps], "seconds": self.seconds}
+                    "steps": [s.to_json() for s in self.steps], "seconds": self.seconds,
+                    **({} if self.bound is None else {"bound": dict(self.bound)})}
         if self.status is PlanStatus.INFEASIBLE:
             return {"assembly": self.assembly, "method": self.method, "feasible": False,
                     "interlocked": list(self.interlocked or ())}

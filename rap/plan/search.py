@@ -33,114 +33,160 @@ only where it decides:
    budget runs out first, the plan is chosen again without optimism (by what is known). The
    plan's scores are reported without optimism.
 
+5. **Bounds** (``rap.plan.bound_search``): every unsimulated operation also has an upper bound
+   ``u`` on its simulated score, split-conformal from the model's expected score
+   (``rap.model.score_bounds``, the shipped calibration ``rap/data/score_bounds.json``; without it
+   every ``u`` is 1), at the per-operation level ``1 - (1 - confidence) / (n - 1)`` (Bonferroni
+   over a sequence's ``n - 1`` steps). ``V``, the best product of ``u`` (simulated scores where
+   known) over every sequence, bounds the optimum's robustness at ``confidence`` (default 0.95).
+   ``upper`` ``w`` in [0, 1] (default 0: off) makes an unsimulated, untrusted operation count as
+   ``max(p + u_opt (1 - p), p + w (u - p))`` while choosing (``u_opt`` the optimism; the larger
+   of the two raises). With ``upper = 1`` and ``simulations`` this is branch and bound: the
+   optimistic sequence's unsimulated operations are simulated (the most raised first when the
+   budget cuts the round short), and the search stops when the best fully simulated sequence
+   (the *incumbent*) reaches ``V`` (nothing left can beat it), when it is within ``gap`` of it
+   (``I >= (1 - gap) V``; ``gap`` None: off), or when the budget is spent (then the plan is
+   chosen by what is known, as above); a stop by ``gap`` or ``V`` returns the incumbent
+   (``stats["stopped"]``: ``settled``, ``budget``, ``gap`` or ``bound``). ``gap`` works with the
+   constant optimism too. In beam mode ``V`` and the incumbent range over the final beam's
+   sequences only (reported as the bound's ``scope``: ``beam``).
+6. **A bound with every plan**: after the plan's steps are simulated for evaluation, ``V`` is
+   computed again with those scores (so it is never below the plan's own robustness ``R``) and
+   reported as ``PlanResult.bound``: ``{"robustness_upper": V, "confidence", "gap": 1 - R / V,
+   "scope", "note"}`` (``rap.plan.bound_search.report``); its time and CNN batches are in the
+   stats (``bound_seconds``), not in ``seconds``.
+
 With a perfect model (predictions equal to the simulator's scores) the exact mode returns the
-optimum exactly. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
+optimum exactly; with zero-width bounds too (``ScoreBounds.zero_width()``), ``V`` is the optimum. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
 
 Cost: one CNN batch per subassembly visited (exact; on held-out assemblies 65-71% of the graph's
-operations on average) or per round's candidates (beam), plus the simulations asked for. No ray,
-no torch.
+operations on average) or per round's candidates (beam), plus the simulations asked for, plus the
+bound's dynamic programme (``max_value``: the subassemblies it visits that the search did not are
+scored by the CNN; none when the bounds are uncalibrated). No ray, no torch.
 """
 
 from __future__ import annotations
 
 import heapq
 import math
+import threading
+import time
 from dataclasses import dataclass
 
-from rap.plan.bounded_dp import dp_choice_bounded
+from rap.model.score_bounds import ScoreBounds, bonferroni, load
+from rap.plan.bound_search import SearchScores, incumbent, max_value, report
+from rap.plan.bounded_dp import SLACK, dp_choice_bounded
 from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
 from rap.plan.planners import Planner
 from rap.plan.problem import PlanningProblem
-from rap.plan.result import PlanStep
+from rap.plan.result import PlanResult, PlanStep
 from rap.plan.scorers import Scorer
 
-__all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS"]
+__all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE"]
 
 DEFAULT_BEAM = 8
 DEFAULT_MAX_OPERATIONS = 20_000
+DEFAULT_CONFIDENCE = 0.95
+_CURRENT = threading.local()  # .run: the _Run of the search solving in this thread
 
 
 @dataclass
-class _Scores:
-    """The score of each operation as far as known: simulated (exact) or predicted."""
+class _Run:
+    """What one search leaves for its plan's bound: the scores, and the graph (exact) or the
+    final beam's sequences."""
 
-    problem: PlanningProblem
-    scorer: Scorer
-    predicted: dict
-    simulated: dict
-    optimism: float = 0.0
-    trust: float | None = None
-
-    def predict(self, ops) -> None:
-        todo = {}
-        for op in ops:
-            k = self.problem.key(op)
-            if k not in self.predicted and k not in todo:
-                todo[k] = op
-        if todo:
-            for k, v in zip(todo, self.scorer.expected_scores(self.problem, list(todo.values()))):
-                self.predicted[k] = float(v)
-
-    def of(self, op) -> float:
-        """The score the search chooses by: simulated, else predicted (raised by the optimism
-        unless trusted)."""
-        k = self.problem.key(op)
-        if k in self.simulated:
-            return self.simulated[k]
-        p = self.predicted[k]
-        if self.optimism and (self.trust is None or p < self.trust):
-            return p + self.optimism * (1.0 - p)
-        return p
-
-    def known(self, op) -> float:
-        """The score without optimism: simulated, else predicted."""
-        k = self.problem.key(op)
-        return self.simulated[k] if k in self.simulated else self.predicted[k]
-
-    def simulate(self, ops) -> None:
-        ops = [op for op in ops if self.problem.key(op) not in self.simulated]
-        for op, sc in zip(ops, self.scorer.scores(self.problem, ops)):
-            self.simulated[self.problem.key(op)] = float(sc)
+    scores: SearchScores
+    graph: dict | None = None
+    beam: list | None = None
 
 
 class SearchPlanner(Planner):
-    """See the module docstring. ``rap.plan.methods.SearchOptions`` declares the options (ranges,
-    defaults) and checks them; they are not checked here."""
+    """See the module doc. ``rap.plan.methods.SearchOptions`` declares the options (ranges,
+    defaults) and checks them; they are not checked here. ``bounds``: the score bounds (None:
+    ``rap.model.score_bounds.load()``, the shipped calibration, read on first use)."""
 
     name = "search"
 
     def __init__(self, beam_width: int = DEFAULT_BEAM, max_operations: int = DEFAULT_MAX_OPERATIONS,
                  simulations: int = 0, trust: float | None = None, lazy: bool = True,
-                 optimism: float = 0.0):
+                 optimism: float = 0.0, upper: float = 0.0,
+                 confidence: float = DEFAULT_CONFIDENCE, gap: float | None = None,
+                 bounds: ScoreBounds | None = None):
         self.optimism = float(optimism)
         self.beam_width = int(beam_width)
         self.max_operations = int(max_operations)
         self.simulations = int(simulations)
         self.trust = None if trust is None else float(trust)
         self.lazy = bool(lazy)  # False: score the whole graph in one batch first (same plan)
+        self.upper = float(upper)
+        self.confidence = float(confidence)
+        self.gap = None if gap is None else float(gap)
+        self.bounds = bounds
 
-    def _to_simulate(self, scores: "_Scores", ops) -> list:
+    def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
+        """``Planner.solve``, then the plan's bound (module doc, 6)."""
+        _CURRENT.run = None
+        result = super().solve(problem, scorer)
+        run, _CURRENT.run = _CURRENT.run, None
+        if not result.found or run is None:
+            return result
+        t = time.perf_counter()
+        before = scorer.stats.to_dict()
+        bound = self._bound(run, result)
+        stats = dict(result.stats)
+        for k, v in scorer.stats.to_dict().items():  # the bound's CNN batches count too
+            stats[k] = stats.get(k, 0) + v - before[k]
+        stats["bound_seconds"] = time.perf_counter() - t
+        return result.with_(bound=bound, stats=stats)
+
+    def _to_simulate(self, scores: SearchScores, ops) -> list:
         """The operations of a chosen sequence still worth a simulation: not simulated, and not
-        trusted (predicted score below ``trust``)."""
+        trusted (predicted score below ``trust``); with bounds, the most raised first."""
         key = scores.problem.key
-        return [op for op in ops if key(op) not in scores.simulated
+        todo = [op for op in ops if key(op) not in scores.simulated
                 and (self.trust is None or scores.predicted[key(op)] < self.trust)]
+        if scores.upper:
+            todo.sort(key=lambda op: -scores.of(op) / max(scores.known(op), 1e-300))
+        return todo
+
+    def _watching(self, scores: SearchScores) -> bool:
+        """Whether each round compares the incumbent with the bound."""
+        return self.gap is not None or bool(scores.upper)
+
+    def _settled(self, best: float, value: float, spent: int, stats: dict) -> bool:
+        """Whether the incumbent ``best`` stops the search against the bound ``value``."""
+        if best <= 0.0:
+            return False
+        if self.gap is not None and best >= (1.0 - self.gap) * value:
+            stats.update(stopped="gap", gap=self.gap)
+        elif best >= value * SLACK:
+            stats["stopped"] = "bound"
+        else:
+            return False
+        stats.update(search_bound=value, stopped_after=spent, predicted_robustness=best)
+        return True
 
     def _search(self, problem, scorer, stats):
         whole = problem.whole
         if len(whole) < 2:
             return []
-        scores = _Scores(problem, scorer, {}, {}, self.optimism, self.trust)
+        if self.bounds is None:
+            self.bounds = load()
+        scores = SearchScores(problem, scorer, self.bounds,
+                              bonferroni(self.confidence, len(whole) - 1), self.optimism,
+                              self.upper, self.trust)
         try:
             graph = reachable(problem, self.max_operations)
         except TooLarge:
             graph = None
+        run = _Run(scores, graph)
         if graph is not None:
             stats["search"] = "exact"
             trees = self._exact(graph, scores, whole, stats)
         else:
             stats["search"] = "beam"
-            trees = self._beam(problem, scores, whole, stats)
+            trees = self._beam(problem, scores, whole, stats, run)
+        _CURRENT.run = run
         steps = {}
         for sub, op in trees.items():
             k = problem.key(op)
@@ -151,8 +197,31 @@ class SearchPlanner(Planner):
         stats["predicted_operations"] = len(scores.predicted)
         return assembly_order(steps, whole)
 
+    def _bound(self, run: _Run, result: PlanResult) -> dict:
+        """The plan's ``bound`` block with its own simulated scores counted (module doc, 6)."""
+        scores = run.scores
+        scores.add_simulated([s.to_operation() for s in result.steps],
+                             [s.score for s in result.steps])
+        if run.graph is not None:
+            value, scope = self._max_high(run.graph, scores, scores.problem.whole), "exact"
+        else:
+            value = max(math.prod(scores.high(op) for op in seq) for seq in run.beam)
+            scope = "beam"
+        return report(result.robustness, value, self.confidence, scope, scores.bounds,
+                      len(result.steps), scores.level)
+
+    @staticmethod
+    def _max_high(graph, scores: SearchScores, whole) -> float:
+        """``V``: the best product of upper bounds (simulated scores where known)."""
+        def scores_of(s):
+            if scores.bounds.calibrated:  # uncalibrated: every bound is 1, no CNN needed
+                scores.predict(graph[s])
+            return [scores.high(op) for op in graph[s]]
+
+        return max_value(graph, scores_of, whole)
+
     # -- exact ------------------------------------------------------------------------------------
-    def _exact(self, graph, scores: _Scores, whole, stats) -> dict:
+    def _exact(self, graph, scores: SearchScores, whole, stats) -> dict:
         stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
         if not self.lazy:
             scores.predict([op for c in graph.values() for op in c])
@@ -167,21 +236,29 @@ class SearchPlanner(Planner):
             if best <= 0.0:
                 raise Interlocked(dead_end(graph, whole))
             choice = {sub: op for sub, (_, op) in tree.items()}
+            if self._watching(scores):
+                exact = scores.upper == 1.0 and not scores.optimism and self.trust is None
+                value = best if exact else self._max_high(graph, scores, whole)
+                got, tree_got = incumbent(graph, scores, whole)
+                if self._settled(got, value, spent, stats):
+                    return tree_got
             todo = self._to_simulate(scores, choice.values())
-            if todo and spent >= self.simulations and scores.optimism:
+            if todo and spent >= self.simulations and scores.raised:
                 # budget spent with raised scores still in the choice: choose by what is known
-                scores.optimism = 0.0
+                scores.lower()
                 continue
             if not todo or spent >= self.simulations:
                 stats["predicted_robustness"] = math.prod(scores.known(op)
                                                           for op in choice.values())
+                stats["stopped"] = "budget" if todo else "settled"
                 return choice
             todo = todo[:self.simulations - spent]
             scores.simulate(todo)
             spent += len(todo)
 
     # -- beam -------------------------------------------------------------------------------------
-    def _beam(self, problem: PlanningProblem, scores: _Scores, whole, stats) -> dict:
+    def _beam(self, problem: PlanningProblem, scores: SearchScores, whole, stats,
+              run: _Run) -> dict:
         # a state: (log product, tie-break counter, open subassemblies largest first, choices)
         beam = [(0.0, 0, (whole,), ())]
         counter = 1
@@ -211,18 +288,27 @@ class SearchPlanner(Planner):
                 raise Interlocked(whole)
             beam = heapq.nlargest(self.beam_width, nxt, key=lambda st: (st[0], -st[1]))
         stats.update(beam_rounds=rounds, beam_width=self.beam_width)
+        run.beam = [[op for _, op in st[3]] for st in beam]
         # simulations where they matter: re-rank the final sequences by mixed products
         spent = 0
         while True:
             ranked = sorted(beam, key=lambda st: (-sum(math.log(max(scores.of(op), 1e-300))
                                                        for _, op in st[3]), st[1]))
             top = ranked[0][3]
+            if self._watching(scores):
+                value = max(math.prod(scores.high(op) for op in seq) for seq in run.beam)
+                full = [st[3] for st in ranked if all(scores.is_simulated(op) for _, op in st[3])]
+                got = max((math.prod(scores.known(op) for _, op in seq), -i)
+                          for i, seq in enumerate(full)) if full else (0.0, 0)
+                if self._settled(got[0], value, spent, stats):
+                    return dict(full[-got[1]])
             todo = self._to_simulate(scores, [op for _, op in top])
-            if todo and spent >= self.simulations and scores.optimism:
-                scores.optimism = 0.0  # as in exact mode: the budget is spent, rank by what is known
+            if todo and spent >= self.simulations and scores.raised:
+                scores.lower()  # as in exact mode: the budget is spent, rank by what is known
                 continue
             if not todo or spent >= self.simulations:
                 stats["predicted_robustness"] = math.prod(scores.known(op) for _, op in top)
+                stats["stopped"] = "budget" if todo else "settled"
                 return dict(top)
             todo = todo[:self.simulations - spent]
             scores.simulate(todo)

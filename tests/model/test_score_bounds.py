@@ -90,7 +90,9 @@ def test_fit_rejects_bad_input(bad):
 
 
 def test_bad_levels():
-    for level in (0.0, 1.0, -1, 2):
+    assert ScoreBounds.trivial().upper([0.5], 1.0)[0] == 1.0  # level 1: the trivial bound
+    assert ScoreBounds.zero_width().upper([0.5], 1.0)[0] == 0.5
+    for level in (0.0, -1, 2):
         with pytest.raises(ValueError, match="level"):
             ScoreBounds.trivial().upper([0.5], level)
 

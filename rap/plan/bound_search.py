@@ -1,0 +1,203 @@
+"""Branch and bound on the model's uncertainty: what a search knows of each operation, and bounds.
+
+``SearchScores`` holds, for one search, every operation's score as far as known: the simulator's
+(exact) where simulated, else the model's expected score ``p`` and its conformal upper bound ``u``
+at a per-operation level (``rap.model.score_bounds``). Three views:
+
+* ``known(op)``: simulated, else ``p`` (what a plan is chosen by when the budget is spent);
+* ``high(op)``: simulated, else ``u``: an upper bound on the simulated score. With ``level =
+  bonferroni(confidence, n - 1)`` (``1 - (1 - confidence) / (n - 1)``, the union bound over a
+  sequence's ``n - 1`` steps) the bounds of all steps of one sequence (the optimum's, say) hold
+  together with probability at least ``confidence``, so ``V = max over sequences of the product
+  of high`` is an upper bound on the optimum's robustness at that confidence. The guarantee is
+  split conformal's: for operations exchangeable with the calibration set; that the optimum's
+  steps are chosen by their scores is not covered by it, which is why coverage is *measured*
+  (docs/RESULTS.md);
+* ``of(op)`` (what the search chooses by): simulated; else ``p`` when trusted (``p >= trust``);
+  else ``max(p + optimism (1 - p), p + upper (u - p))``: the constant optimism of earlier releases
+  and the bound's share ``upper`` in [0, 1], whichever is the larger (``upper = 0``: the constant
+  optimism alone, as before; ``upper = 1, optimism = 0``: the bound itself).
+
+``max_value(graph, scores_of, whole)``: ``max over sequences of the product of scores`` by branch
+and bound (no tie-breaking, so ties are pruned); ``incumbent(graph, scores, whole)``: the best
+sequence all of whose operations are simulated (its robustness and tree; 0 and None when there is
+none). ``report(...)``: the ``bound`` block of a plan (``rap.plan.result.PlanResult``).
+
+Cost: ``max_value`` at most one visit of each reachable subassembly (its candidates' scores asked
+once); the upper bounds of a batch of predictions are one vectorised call. No ray, no torch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rap.model.score_bounds import ScoreBounds, bonferroni
+from rap.plan.bounded_dp import dp_choice_bounded
+from rap.plan.graph import Graph
+from rap.plan.problem import PlanningProblem
+from rap.plan.scorers import Scorer
+
+__all__ = ["SearchScores", "max_value", "incumbent", "report", "bonferroni"]
+
+
+@dataclass
+class SearchScores:
+    """The scores one search knows (module doc). ``level``: the per-operation level of the upper
+    bounds (``bonferroni(confidence, steps)``)."""
+
+    problem: PlanningProblem
+    scorer: Scorer
+    bounds: ScoreBounds = field(default_factory=ScoreBounds.trivial)
+    level: float = 0.95
+    optimism: float = 0.0
+    upper: float = 0.0
+    trust: float | None = None
+    predicted: dict = field(default_factory=dict)
+    bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
+    simulated: dict = field(default_factory=dict)
+
+    @property
+    def raised(self) -> bool:
+        """Whether the search chooses by raised scores (optimism or the bounds' share)."""
+        return bool(self.optimism or self.upper)
+
+    def lower(self) -> None:
+        """Choose by what is known from now on (the budget is spent)."""
+        self.optimism = self.upper = 0.0
+
+    def predict(self, ops) -> None:
+        """The model's expected score (and its upper bound) of each operation not predicted yet,
+        in one CNN batch."""
+        todo = {}
+        for op in ops:
+            k = self.problem.key(op)
+            if k not in self.predicted and k not in todo:
+                todo[k] = op
+        if todo:
+            p = np.asarray(self.scorer.expected_scores(self.problem, list(todo.values())),
+                           dtype=np.float64)
+            u = self.bounds.upper(p, self.level)
+            for k, v, w in zip(todo, p, u):
+                self.predicted[k] = float(v)
+                self.bound[k] = float(w)
+
+    def of(self, op) -> float:
+        """The score the search chooses by (module doc)."""
+        k = self.problem.key(op)
+        if k in self.simulated:
+            return self.simulated[k]
+        p = self.predicted[k]
+        if self.trust is not None and p >= self.trust:
+            return p
+        out = p
+        if self.optimism:
+            out = p + self.optimism * (1.0 - p)
+        if self.upper:
+            out = max(out, p + self.upper * (self.bound[k] - p))
+        return out
+
+    def known(self, op) -> float:
+        """Simulated, else predicted."""
+        k = self.problem.key(op)
+        return self.simulated[k] if k in self.simulated else self.predicted[k]
+
+    def high(self, op) -> float:
+        """Simulated, else the upper bound (1 for an operation not predicted)."""
+        k = self.problem.key(op)
+        return self.simulated[k] if k in self.simulated else self.bound.get(k, 1.0)
+
+    def is_simulated(self, op) -> bool:
+        return self.problem.key(op) in self.simulated
+
+    def simulate(self, ops) -> None:
+        """Simulate the operations not simulated yet (one batch)."""
+        ops = [op for op in ops if self.problem.key(op) not in self.simulated]
+        for op, sc in zip(ops, self.scorer.scores(self.problem, ops)):
+            self.simulated[self.problem.key(op)] = float(sc)
+
+    def add_simulated(self, ops, scores) -> None:
+        """Scores simulated elsewhere (a plan's evaluation)."""
+        for op, sc in zip(ops, scores):
+            self.simulated[self.problem.key(op)] = float(sc)
+
+
+def max_value(graph: Graph, scores_of, whole: frozenset) -> float:
+    """``max over sequences of the product of scores`` below ``whole`` (1 for a single part, 0
+    when none exists); ``scores_of(S)``: the scores in [0, 1] of ``graph[S]`` in order, asked at
+    most once per subassembly. Branch and bound as ``rap.plan.bounded_dp``, but a candidate that
+    can at most tie is pruned (only the value is wanted). Recursion depth at most the parts."""
+    exact: dict[frozenset, float] = {}
+    bounded: dict[frozenset, float] = {}
+    asked: dict[frozenset, list] = {}
+
+    def value(s: frozenset, tau: float) -> tuple[float, bool]:
+        # best(s) exactly when it exceeds tau; else (a number <= tau that is >= best(s), False)
+        if len(s) < 2:
+            return 1.0, True
+        if s in exact:
+            return exact[s], True
+        if s in bounded and bounded[s] <= tau:
+            return bounded[s], False
+        cands = graph[s]
+        if s not in asked:
+            asked[s] = list(scores_of(s)) if cands else []
+        scores = asked[s]
+        best = 0.0
+        for i in sorted(range(len(cands)), key=lambda j: -scores[j]):
+            r = scores[i]
+            cut = max(best, tau)
+            if r <= cut or r <= 0.0:
+                break  # sorted: nothing later can beat the cut
+            vm, ok = value(cands[i].moving, cut / r)
+            if not ok or r * vm <= cut:
+                continue
+            vf, ok = value(cands[i].fixed, cut / (r * vm))
+            if ok and r * vm * vf > best:
+                best = r * vm * vf
+        if best > tau:
+            exact[s] = best
+            return best, True
+        bounded[s] = max(tau, 0.0)
+        return bounded[s], False
+
+    if len(whole) < 2:
+        return 1.0
+    v, ok = value(whole, -1.0)
+    return v if ok else 0.0
+
+
+def incumbent(graph: Graph, scores: SearchScores, whole: frozenset) -> tuple[float, dict | None]:
+    """The best sequence whose operations are all simulated: (its robustness, subassembly ->
+    operation), or (0.0, None) when no such sequence exists. No prediction is asked for."""
+    def scores_of(s):
+        return [scores.simulated.get(scores.problem.key(op), 0.0) for op in graph[s]]
+
+    best, tree = dp_choice_bounded(graph, scores_of, whole)
+    if best <= 0.0:
+        return 0.0, None
+    return best, {sub: op for sub, (_, op) in tree.items()}
+
+
+def report(robustness: float, value: float, confidence: float, scope: str,
+           bounds: ScoreBounds, steps: int, level: float) -> dict:
+    """A plan's ``bound`` block: the optimum's upper bound ``V`` (raised to the plan's own
+    ``robustness`` where rounding left it below), the confidence, the plan's gap ``1 - R / V``,
+    the scope (``exact``: every sequence; ``beam``: the final beam's only) and a note on where the
+    bounds came from."""
+    v = max(float(value), float(robustness))
+    if bounds.perfect:
+        note = "a perfect scorer: the bound is the optimum"
+    elif not bounds.calibrated:
+        note = bounds.provenance.get("note", "no calibration: unsimulated operations bounded by 1")
+    else:
+        src = bounds.provenance
+        what = ", ".join(f"{k} {src[k]}" for k in ("model", "calibration", "date") if k in src)
+        note = (f"split-conformal bounds per operation at level {level:.4g} (Bonferroni over "
+                f"{steps} steps)" + (f"; {what}" if what else ""))
+    if scope == "beam":
+        note += "; over the final beam's sequences only, not every sequence"
+    return {"robustness_upper": v, "confidence": float(confidence),
+            "gap": 0.0 if v <= 0 else max(0.0, 1.0 - float(robustness) / v),
+            "scope": scope, "note": note}
