@@ -260,8 +260,8 @@ def _check_storyboard(pg, doc: dict, tmp_path: Path) -> None:
         assert pg.inner_text("#step-title").startswith(f"step {k + 1} of {n}")
         assert pg.inner_text("dd[data-fact=moving]") == ", ".join(steps[k]["moving"])
         assert pg.inner_text("dd[data-fact=fixed]") == ", ".join(steps[k]["fixed"])
-        d = steps[k]["direction"]
-        assert pg.inner_text("dd[data-fact=direction]").startswith(f"({d[0]:.3f}, {d[1]:.3f})")
+        d = steps[k]["insertion"]
+        assert pg.inner_text("dd[data-fact=insertion]").startswith(f"({d[0]:.3f}, {d[1]:.3f})")
     assert pg.is_disabled("#next")
     pg.click("#steps tbody tr:first-child")
     assert pg.inner_text("#step-title").startswith(f"step 1 of {n}") and pg.is_disabled("#prev")

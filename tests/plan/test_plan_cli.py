@@ -37,11 +37,11 @@ def test_plan_writes_the_documented_json_and_a_storyboard(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "robustness R" in p.stdout and "sim" in p.stdout
     doc = json.loads(out.read_text())
-    assert list(doc) == ["assembly", "method", "feasible", "robustness", "steps", "seconds"]
+    assert {"assembly", "method", "feasible", "robustness", "steps", "seconds"} <= set(doc)
     assert doc["assembly"] == "row3" and doc["method"] == "sim" and doc["feasible"] is True
     assert len(doc["steps"]) == 2
     for s in doc["steps"]:
-        assert list(s) == ["moving", "fixed", "direction", "score", "source", "confidence"]
+        assert {"moving", "fixed", "insertion", "score", "source", "confidence"} <= set(s)
         assert s["source"] == "sim" and s["confidence"] is None and 0 <= s["score"] <= 1
     r = 1.0
     for s in doc["steps"]:

@@ -246,7 +246,7 @@
       partsSvg(geom, geom.ids, { labels: true }), 'preserveAspectRatio="xMidYMid meet"');
     const circle = ndbgSvg(doc.cells);
     $("ndbg-title").textContent =
-      `NDBG: ${circle.vertices} vertices, ${circle.arcs} arcs (removal directions)`;
+      `NDBG: ${circle.vertices} vertices, ${circle.arcs} arcs (removal directions; removal = -insertion)`;
     $("ndbg-view").innerHTML = circle.svg;
     $("ndbg-legend").innerHTML = `<span>0</span><span class="bar" style="background: linear-gradient(` +
       `to right, ${[0, 0.25, 0.5, 0.75, 1].map((t) => viridis(0.15 + 0.85 * t)).join(", ")})"></span>` +
@@ -337,7 +337,9 @@
       $("plan-status").textContent = `${doc.method}: ${why}; ${timing}`;
       return;
     }
-    const r = doc.robustness === null ? "?" : doc.robustness.toFixed(3);
+    const r = (doc.robustness === null ? "?" : doc.robustness.toFixed(3)) +
+      (doc.robustness_interval ? ` (95% CI ${doc.robustness_interval[0].toFixed(3)}-` +
+        `${doc.robustness_interval[1].toFixed(3)})` : "");
     const evaluated = state.details && typeof state.details.eval_seconds === "number"
       ? `, evaluated by the simulator in ${state.details.eval_seconds.toFixed(2)} s` : "";
     $("plan-status").textContent = `${doc.method} plan of ${doc.assembly}: robustness R = ${r} ` +
@@ -347,7 +349,7 @@
     doc.steps.forEach((st, k) => {
       const tr = document.createElement("tr");
       tr.dataset.step = JSON.stringify(st);
-      const cells = [String(k + 1), st.moving.join(", "), st.fixed.join(", "), degrees(st.direction),
+      const cells = [String(k + 1), st.moving.join(", "), st.fixed.join(", "), degrees(insertion(st)),
         st.score === null ? "?" : st.score.toFixed(2), SOURCE_TEXT[st.source] || st.source];
       for (const [i, text] of cells.entries()) {
         const td = document.createElement("td");
@@ -367,13 +369,15 @@
     return `${(((Math.atan2(d[1], d[0]) * 180 / Math.PI) + 360) % 360).toFixed(1)}\u00b0`;
   }
 
+  // a plan step's insertion direction ("direction" in plan documents of earlier versions)
+  function insertion(st) { return st.insertion || st.direction; }
   function dirText(d) { return `(${d[0].toFixed(3)}, ${d[1].toFixed(3)}), ${degrees(d)}`; }
 
   // one step as rap.render.pictures.storyboard draws it: the fixed parts, the moving ones back
   // along the direction (dashed) and in place, an arrow; the parts of neither in grey
   function stepContent(k) {
     const geom = state.geom, st = state.plan.steps[k];
-    const [dx, dy] = st.direction, gap = 0.45 * geom.size;
+    const [dx, dy] = insertion(st), gap = 0.45 * geom.size;
     const back = [-dx * gap, -dy * gap];
     const placed = new Set(st.moving.concat(st.fixed));
     const rest = geom.ids.filter((id) => !placed.has(id));
@@ -414,10 +418,13 @@
     const facts = [
       ["moving", st.moving.join(", ")],
       ["fixed", st.fixed.join(", ")],
-      ["direction", dirText(st.direction) + " (the moving parts travel along it to their place)"],
+      ["insertion", dirText(insertion(st)) + " (the moving parts travel along it to their place; " +
+        "removal = -insertion)"],
       ["score", (st.score === null ? "?" : st.score.toFixed(3)) +
+        (st.score_interval ? ` (95% CI ${st.score_interval[0].toFixed(2)}-${st.score_interval[1].toFixed(2)})` : "") +
         (st.score !== null && st.score < ROBUST ? `, below ${ROBUST}: not robust` : "") +
         " (the simulator's robustness of this operation)"],
+      ...(st.reason ? [["limited by", st.reason]] : []),
       ["source", (SOURCE_TEXT[st.source] || st.source) + (st.source === "cnn"
         ? `: chosen on the model's score, P(high) = ${st.confidence === null ? "?" : st.confidence.toFixed(3)}`
         : st.source === "sim" ? ": chosen on the simulator's score" : ": chosen at random")],
