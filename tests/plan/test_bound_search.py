@@ -1,0 +1,184 @@
+"""Search with conformal bounds: the bound with a perfect scorer is the optimum, it never falls
+below a plan's own robustness, it covers the optimum when the bounds hold, --gap stops early and
+says so, and every plan passes the swept-area checker."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rap.commands._plan_output import bound_lines
+from rap.model.score_bounds import ScoreBounds, fit
+from rap.plan.bound_search import max_value
+from rap.plan.cache import ScoreCache
+from rap.plan.graph import dp_choice, reachable
+from rap.plan.methods import SearchOptions, from_table_name
+from rap.plan.planners import OptimalPlanner
+from rap.plan.problem import PlanningProblem
+from rap.plan.result import PlanResult, PlanStatus
+from rap.plan.scorers import Scorer
+from rap.plan.search import SearchPlanner
+from rap.plan.validate import check_plan
+from rap.sim.params import SimParams
+
+from tests.plan.cases import SIX, six
+from tests.plan.standins import HashSim, TableCnn, hash_score
+
+PARAMS = SimParams(trials=10)
+WIDTH = 0.2  # the under-prediction of ``low``: the simulator's score lies in [p, p + WIDTH]
+
+
+def scorer(score_fn=hash_score):
+    return Scorer(HashSim(), TableCnn(lambda op: 0.5, score_fn=score_fn), ScoreCache())
+
+
+def tree(result):
+    return [(s.moving, s.fixed, s.direction) for s in result.steps]
+
+
+def optimum(problem):
+    return OptimalPlanner().solve(problem, scorer())
+
+
+def low(seed: int, width: float = WIDTH):
+    """A model that under-predicts each operation by a fixed amount in [0, width] (seeded per
+    operation key): the simulator's score lies in [p, p + width]."""
+    def fn(op):
+        u = np.random.default_rng([seed, int(op.key("low")[:12], 16)]).uniform(0.0, width)
+        return max(0.0, hash_score(op) - u)
+    return fn
+
+
+def covering(width: float = WIDTH) -> ScoreBounds:
+    """Bounds ``p + width`` at every level below 1000/1001: they hold for ``low``'s model."""
+    return ScoreBounds((), ((width,) * 1000,))
+
+
+def checked(problem, result):
+    assert result.status is PlanStatus.FOUND
+    assert check_plan(problem.assembly, result.steps) == []
+    b = result.bound
+    assert b is not None and b["robustness_upper"] >= result.robustness  # never below the plan
+    assert b["gap"] == pytest.approx(1 - result.robustness / b["robustness_upper"])
+    return b
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_a_perfect_scorer_bounds_at_the_optimum_and_reaches_it(name):
+    problem = PlanningProblem(six(name), PARAMS)
+    best = optimum(problem)
+    for planner in (SearchPlanner(bounds=ScoreBounds.zero_width()),
+                    SearchPlanner(bounds=ScoreBounds.zero_width(), upper=1.0, simulations=1000)):
+        found = planner.solve(problem, scorer())
+        b = checked(problem, found)
+        assert tree(found) == tree(best)
+        assert b["robustness_upper"] == pytest.approx(best.robustness, rel=1e-12)
+        assert b["gap"] == pytest.approx(0.0, abs=1e-12) and b["scope"] == "exact"
+        assert "perfect" in b["note"] and b["confidence"] == 0.95
+
+
+@pytest.mark.parametrize("name", ["hexagon", "rectilinear", "triangles"])
+def test_branch_and_bound_on_trivial_bounds_is_exact(name):
+    # every unsimulated operation bounded by 1: the search stops only when no sequence can beat
+    # the best simulated one, so it returns the optimum's robustness whatever the model says
+    problem = PlanningProblem(six(name), PARAMS)
+    best = optimum(problem)
+    found = SearchPlanner(bounds=ScoreBounds.trivial(), upper=1.0, simulations=10_000).solve(
+        problem, scorer(low(3)))
+    checked(problem, found)
+    assert found.robustness == pytest.approx(best.robustness, rel=1e-12)
+    assert found.stats["stopped"] in ("bound", "settled")
+    assert found.stats["search_simulations"] <= best.stats["operations"]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_bound_never_falls_below_the_plan_and_covers_the_optimum(seed):
+    rng = np.random.default_rng(seed)
+    name = SIX[seed % len(SIX)]
+    problem = PlanningProblem(six(name), PARAMS)
+    best = optimum(problem)
+    loose = fit(rng.uniform(0, 1, 300), rng.uniform(0, 1, 300), bins=3)  # a fit, not a cover
+    for bounds in (covering(), loose, ScoreBounds.trivial()):
+        for options in (dict(), dict(simulations=int(rng.integers(1, 30)), upper=1.0),
+                        dict(simulations=20, optimism=0.3, gap=0.1),
+                        dict(simulations=15, upper=0.5, trust=0.9),
+                        dict(simulations=40, upper=1.0, gap=0.0)):
+            found = SearchPlanner(bounds=bounds, **options).solve(problem, scorer(low(seed)))
+            b = checked(problem, found)
+            assert found.robustness <= best.robustness * (1 + 1e-12)
+            if bounds is not loose:  # bounds that hold: the optimum lies under V
+                assert b["robustness_upper"] >= best.robustness * (1 - 1e-12)
+
+
+def test_gap_stops_early_and_says_so():
+    problem = PlanningProblem(six("grid"), PARAMS)
+    best = optimum(problem)
+    width = 0.1
+    runs = {}
+    for gap in (None, 0.1):
+        runs[gap] = SearchPlanner(bounds=covering(width), upper=1.0, simulations=10_000,
+                                  gap=gap).solve(problem, scorer(low(1, width)))
+        checked(problem, runs[gap])
+    full, early = runs[None], runs[0.1]
+    assert full.robustness == pytest.approx(best.robustness, rel=1e-12)  # bounds hold: exact
+    assert early.stats["stopped"] == "gap" and early.stats["gap"] == 0.1
+    n = early.stats["stopped_after"]
+    assert n < full.stats["search_simulations"] and early.stats["search_simulations"] == n
+    assert early.robustness >= 0.9 * best.robustness  # within the gap of the optimum
+    assert early.bound["gap"] <= 0.1 + 1e-12  # the bound holds, so its final gap is smaller
+    lines = bound_lines(early)
+    assert lines[0].startswith(f"optimum <= {early.bound['robustness_upper']:.4f} at 95% "
+                               f"confidence; this plan is within")
+    assert lines[1] == f"stopped at --gap 0.1 after {n} simulations"
+    assert "stopped" not in " ".join(bound_lines(SearchPlanner(bounds=covering()).solve(
+        problem, scorer(low(1)))))
+
+
+def test_beam_bounds_only_its_sequences():
+    gen = pytest.importorskip("rap.geometry.generate")
+    asm = gen.random_tiling(10, np.random.default_rng(5))
+    problem = PlanningProblem(asm, PARAMS)
+    found = SearchPlanner(beam_width=3, max_operations=50, bounds=covering(), upper=1.0,
+                          simulations=30, gap=0.05).solve(problem, scorer(low(2)))
+    b = checked(problem, found)
+    assert found.stats["search"] == "beam" and b["scope"] == "beam"
+    assert "final beam" in b["note"]
+
+
+def test_max_value_is_the_dynamic_programme():
+    rng = np.random.default_rng(4)
+    for name in SIX:
+        problem = PlanningProblem(six(name), PARAMS)
+        graph = reachable(problem)
+        table = {s: list(rng.uniform(0, 1, len(c)) * (rng.uniform(0, 1, len(c)) > 0.2))
+                 for s, c in graph.items()}
+        best, _ = dp_choice(graph, table)
+        assert max_value(graph, table.__getitem__, problem.whole) == pytest.approx(
+            best[problem.whole], rel=1e-12)
+        ones = {s: [1.0] * len(c) for s, c in graph.items()}
+        assert max_value(graph, ones.__getitem__, problem.whole) == 1.0
+
+
+def test_options_names_and_json():
+    opts = from_table_name("search-s200-u100-c90-g5")
+    assert (opts.simulations, opts.upper, opts.confidence, opts.gap) == (200, 1.0, 0.9, 0.05)
+    assert opts.table_name() == "search-s200-u100-c90-g5"
+    assert SearchOptions().table_name() == "search" and SearchOptions().gap is None
+    planner = opts.build()
+    assert (planner.upper, planner.confidence, planner.gap) == (1.0, 0.9, 0.05)
+    problem = PlanningProblem(six("hexagon"), PARAMS)
+    found = SearchPlanner(bounds=covering(), confidence=0.9).solve(problem, scorer(low(0)))
+    doc = found.to_json()
+    assert doc["bound"]["confidence"] == 0.9 and doc["bound"]["scope"] == "exact"
+    assert PlanResult.from_json(doc).to_json() == doc
+    plain = OptimalPlanner().solve(problem, scorer())
+    assert plain.bound is None and "bound" not in plain.to_json() and bound_lines(plain) == []
+    # the per-step level: Bonferroni over the n - 1 steps
+    n = len(problem.whole)
+    assert f"level {1 - 0.1 / (n - 1):.4g}" in SearchPlanner(
+        bounds=fit([0.5] * 500, [0.6] * 500), confidence=0.9).solve(
+        problem, scorer(low(0))).bound["note"]
+    assert math.isclose(found.bound["robustness_upper"],
+                        max(found.bound["robustness_upper"], found.robustness))
