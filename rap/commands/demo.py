@@ -42,11 +42,11 @@ def bundled_assemblies() -> Path:
 
 def _markdown(doc: dict, title: str) -> str:
     lines = [f"# {doc['assembly']}: {title}, R = {doc['robustness']:.4f}", "",
-             "| step | moving | fixed | direction | score | chosen by | P(high) |",
+             "| step | moving | fixed | insertion | score | chosen by | P(high) |",
              "|---:|---|---|---|---:|---|---:|"]
     for i, s in enumerate(doc["steps"], 1):
         conf = "" if s.get("confidence") is None else f"{s['confidence']:.3f}"
-        dx, dy = s["direction"]
+        dx, dy = s["insertion"] if "insertion" in s else s["direction"]
         lines.append(f"| {i} | {','.join(s['moving'])} | {','.join(s['fixed'])} | "
                      f"({dx:+.3f}, {dy:+.3f}) | {s['score']:.3f} | {s['source']} | {conf} |")
     return "\n".join(lines) + "\n"
