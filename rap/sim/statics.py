@@ -13,26 +13,42 @@ this is exact. Each end point force lies in the Coulomb cone ``|f_t| <= mu f_n``
 ``n + mu t`` and ``n - mu t`` (``n`` the unit normal from ``a`` into ``b``, ``t`` the tangent).
 Newton's third law: ``b`` feels the force, ``a`` its opposite. Every non-base part must be in
 equilibrium of force and torque (about its centroid). The parts are statically stable when the
-program is feasible (``Support.stable``). The check is the existence of an equilibrium (the
-rigid-block analysis of masonry, and ASAP's check): it does not prove that a real pile finds that
-equilibrium, hence the independent settling simulation ``rap.sim.settling``.
+program is feasible and no single part has a mechanism (below): ``Support.stable``.
+
+Pre-stress: the program accepts any equilibrium, also one that needs parts squeezed together (a
+brick overhanging its support, held by friction against a neighbour that presses on it sideways;
+a block wedged between two vertical faces). A pile built by placing parts at rest has no such
+forces, and those parts move. So before the program, ``rap.sim.mechanisms`` tries each part
+alone, the others fixed: a rotation about one of its contact points that opens all its other
+contacts and that gravity drives, or a slide that friction on the gravity-pressed contacts cannot
+hold; one found makes the parts unstable. Mechanisms of several parts together that need
+pre-stress are not caught (none among 400 random subsets of the 22-brick wall, where the verdict
+agreed with the settling simulation ``rap.sim.settling`` on all but 9 knife-edge states, which
+this check rejects and the simulation's perfect symmetry holds).
+
+Margin: with ``margin = 0`` the forces act at the segments' end points and the check is exact
+for rigid parts; but then a knife-edge balance passes (a brick whose centroid lies exactly above
+the corner of the one brick under it: a force at that corner balances it), which no real pile
+and no simulation holds. So by default (``DEFAULT_MARGIN``) each end point of a contact segment
+is moved inwards by 5% of the segment's length before the forces are placed: a part must be
+balanced with some room to spare. Point contacts (a vertex on an edge) are not moved.
 
 Scaling, so that HiGHS's absolute tolerances (1e-7) mean something: lengths in units of the
 assembly's larger extent, about its bounding box's centre; masses in units of the mean part area.
 Decisions within those tolerances of the tipping or sliding limit (a centroid exactly above a
 support corner, a slope exactly at the friction angle) may go either way.
 
-Only the base alone is stable; a non-base part with no contact in ``ids`` is not. When the parts
+The base alone is stable; a non-base part with no contact in ``ids`` is not. When the parts
 are not stable, ``Support.reason`` names them in one line: parts that touch nothing, parts that
 are not connected to the base through contacts, else the parts that need the most help in an
 elastic version of the program (slack forces and torques, least total slack).
 
-Cost: the assembly's contact table and per-part data are built once per geometry hash; a call
-then builds a dense (3 parts) x (4 contact points) matrix and solves one LP with HiGHS (a second,
-elastic one only to name the parts when infeasible): about 2-4 ms for a subset of the 22-brick
-wall (``benchmarks/statics.py``). Results are memoised per
-``(geometry hash, frozenset(ids), base, gravity, friction)`` in a bounded LRU cache
-(``CACHE_SIZE`` entries); it is thread-safe.
+Cost: the assembly's contact table and per-part data are built once per geometry hash (and
+margin); a call then builds a dense (3 x parts) by (2 x contact points) matrix and solves one LP
+with HiGHS (a second, elastic one only to name the parts when infeasible): a few milliseconds for
+a subset of the 22-brick wall, most of it scipy's ``linprog`` wrapper (``benchmarks/statics.py``
+prints the figures). Results are memoised per ``(geometry hash, frozenset(ids), base, gravity,
+friction, margin)`` in a bounded LRU cache (``CACHE_SIZE`` entries); it is thread-safe.
 """
 
 from __future__ import annotations
@@ -48,10 +64,12 @@ from scipy.optimize import linprog
 
 from rap.assembly import Assembly
 from rap.geometry.contacts import contact_table, contacts_within
+from rap.sim.mechanisms import single_part_mechanism
 
-__all__ = ["DEFAULT_FRICTION", "Support", "check_static", "CACHE_SIZE"]
+__all__ = ["DEFAULT_FRICTION", "DEFAULT_MARGIN", "Support", "check_static", "CACHE_SIZE"]
 
 DEFAULT_FRICTION = 0.5
+DEFAULT_MARGIN = 0.05  # of each contact segment's length, at each end (see the module doc)
 CACHE_SIZE = 65536
 _BLAME_SLACK = 1e-6  # elastic LP: slack above this (in units of the part's weight) names a part
 
@@ -72,6 +90,8 @@ class _Geometry:
     mass: dict  # part id -> mass (area / mean area)
     centroid: dict  # part id -> (x, y) normalised
     points: dict  # (a, b) -> float array [k, 4]: x, y, unit normal (a into b), normalised
+    size: float  # the assembly's larger extent: one normalised length unit
+    center: tuple[float, float]  # the origin of the normalised coordinates
 
 
 def _centroid_area(part) -> tuple[float, float, float]:
@@ -88,7 +108,7 @@ def _centroid_area(part) -> tuple[float, float, float]:
     return float(a2 / 2), float(cx6 / (3 * a2)), float(cy6 / (3 * a2))
 
 
-def _build(assembly: Assembly) -> _Geometry:
+def _build(assembly: Assembly, margin: float) -> _Geometry:
     x0, y0, x1, y1 = assembly.bounds()
     size = max(x1 - x0, y1 - y0)
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
@@ -102,26 +122,29 @@ def _build(assembly: Assembly) -> _Geometry:
         for c in contacts:
             nx, ny = float(c.normal[0]), float(c.normal[1])
             norm = math.hypot(nx, ny)
-            for p in ((c.p,) if c.p == c.q else (c.p, c.q)):
-                rows.append(((float(p[0]) - cx) / size, (float(p[1]) - cy) / size,
-                             nx / norm, ny / norm))
+            (px, py), (qx, qy) = ((float(v[0]), float(v[1])) for v in (c.p, c.q))
+            ends = [(px, py)] if c.p == c.q else [
+                (px + margin * (qx - px), py + margin * (qy - py)),
+                (qx - margin * (qx - px), qy - margin * (qy - py))]
+            for x, y in ends:
+                rows.append(((x - cx) / size, (y - cy) / size, nx / norm, ny / norm))
         points[pair] = np.array(rows, dtype=float).reshape(-1, 4)
-    return _Geometry(mass, centroid, points)
+    return _Geometry(mass, centroid, points, size, (cx, cy))
 
 
-_GEOMETRY: OrderedDict[str, _Geometry] = OrderedDict()
+_GEOMETRY: OrderedDict[tuple, _Geometry] = OrderedDict()
 _RESULTS: OrderedDict[tuple, Support] = OrderedDict()
 _LOCK = threading.Lock()
 
 
-def _geometry(assembly: Assembly) -> _Geometry:
-    key = assembly.geometry_hash
+def _geometry(assembly: Assembly, margin: float) -> _Geometry:
+    key = (assembly.geometry_hash, margin)
     with _LOCK:
         hit = _GEOMETRY.get(key)
         if hit is not None:
             _GEOMETRY.move_to_end(key)
             return hit
-    geo = _build(assembly)
+    geo = _build(assembly, margin)
     with _LOCK:
         _GEOMETRY[key] = geo
         while len(_GEOMETRY) > 32:
@@ -184,6 +207,34 @@ def _system(geo: _Geometry, movers: list[str], pairs, g: tuple[float, float], mu
     return a_eq, b_eq, m
 
 
+def _mechanism_reason(geo: _Geometry, movers: list[str], pairs, g: tuple[float, float],
+                      mu: float) -> str:
+    """A reason when one part alone tips or slides with the others fixed
+    (``rap.sim.mechanisms``), else ''."""
+    mine: dict[str, list[np.ndarray]] = {p: [] for p in movers}
+    for a, b in pairs:
+        pts = geo.points[(a, b)]
+        if b in mine:
+            mine[b].append(pts)
+        if a in mine:
+            mine[a].append(np.concatenate([pts[:, :2], -pts[:, 2:]], axis=1))
+    gv = np.array(g)
+    for part in movers:
+        pts = np.concatenate(mine[part]) if mine[part] else np.zeros((0, 4))
+        found = single_part_mechanism(pts[:, :2], pts[:, 2:], np.array(geo.centroid[part]), gv,
+                                      mu)
+        if found is None:
+            continue
+        if found.kind == "tip":
+            x, y = (geo.center[i] + geo.size * found.where[i] for i in (0, 1))
+            return (f"part {part!r} would tip about ({x:.4g}, {y:.4g}): nothing presses it "
+                    f"against the parts that would have to hold it")
+        dx, dy = found.where
+        return (f"part {part!r} would {found.kind} along ({dx:.3g}, {dy:.3g}) with friction "
+                f"{mu:g}")
+    return ""
+
+
 def _blame(a_eq, b_eq, m, movers: list[str]) -> list[str]:
     """The parts with slack in the least-slack elastic program (slack per unit of weight)."""
     rows = a_eq.shape[0]
@@ -199,7 +250,7 @@ def _blame(a_eq, b_eq, m, movers: list[str]) -> list[str]:
 
 
 def _solve(assembly: Assembly, chosen: set[str], base: str, g: tuple[float, float],
-           mu: float) -> Support:
+           mu: float, margin: float) -> Support:
     movers = sorted(chosen - {base})
     if not movers:
         return Support(True)
@@ -207,7 +258,10 @@ def _solve(assembly: Assembly, chosen: set[str], base: str, g: tuple[float, floa
     reason = _connectivity_reason(chosen, base, pairs)
     if reason:
         return Support(False, reason)
-    geo = _geometry(assembly)
+    geo = _geometry(assembly, margin)
+    reason = _mechanism_reason(geo, movers, pairs, g, mu)
+    if reason:
+        return Support(False, reason)
     a_eq, b_eq, m = _system(geo, movers, pairs, g, mu)
     res = linprog(np.zeros(a_eq.shape[1]), A_eq=a_eq, b_eq=b_eq, bounds=(0, None),
                   method="highs")
@@ -223,11 +277,14 @@ def _solve(assembly: Assembly, chosen: set[str], base: str, g: tuple[float, floa
 
 
 def check_static(assembly: Assembly, ids: Iterable[str], base: str,
-                 gravity: tuple[float, float], friction: float = DEFAULT_FRICTION) -> Support:
+                 gravity: tuple[float, float], friction: float = DEFAULT_FRICTION,
+                 margin: float = DEFAULT_MARGIN) -> Support:
     """Is there an equilibrium of the parts ``ids`` standing on the fixed part ``base`` under
-    ``gravity`` with Coulomb friction coefficient ``friction``? (See the module doc for the model,
-    the reasons and the cost.) ``ValueError`` when ``base`` is not in ``ids``, gravity is zero or
-    not finite, or friction is negative; ``KeyError`` for an unknown part id."""
+    ``gravity`` with Coulomb friction coefficient ``friction``, the contact segments shortened by
+    ``margin`` of their length at each end? (See the module doc for the model, the margin, the
+    reasons and the cost.) ``ValueError`` when ``base`` is not in ``ids``, gravity is zero or not
+    finite, friction is negative or margin outside [0, 0.5); ``KeyError`` for an unknown part
+    id."""
     chosen = frozenset(ids)
     if base not in chosen:
         raise ValueError(f"the base part {base!r} is not among the parts")
@@ -240,13 +297,16 @@ def check_static(assembly: Assembly, ids: Iterable[str], base: str,
     mu = float(friction)
     if not (math.isfinite(mu) and mu >= 0):
         raise ValueError(f"friction must be a finite number >= 0, not {friction}")
-    key = (assembly.geometry_hash, chosen, base, gx, gy, mu)
+    margin = float(margin)
+    if not (0 <= margin < 0.5):
+        raise ValueError(f"margin must be in [0, 0.5), not {margin}")
+    key = (assembly.geometry_hash, chosen, base, gx, gy, mu, margin)
     with _LOCK:
         hit = _RESULTS.get(key)
         if hit is not None:
             _RESULTS.move_to_end(key)
             return hit
-    result = _solve(assembly, set(chosen), base, (gx / norm, gy / norm), mu)
+    result = _solve(assembly, set(chosen), base, (gx / norm, gy / norm), mu, margin)
     with _LOCK:
         _RESULTS[key] = result
         while len(_RESULTS) > CACHE_SIZE:

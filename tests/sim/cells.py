@@ -8,7 +8,7 @@ from pathlib import Path
 from rap.io import load_assembly, parse_assembly
 
 __all__ = ["CELLS", "STACK", "ARCH", "CENTRING", "WALL", "SLOPE", "CANTILEVER", "OVERHANG",
-           "AGREEMENT", "DOWN", "wall_bricks"]
+           "WEDGED", "AGREEMENT", "DOWN", "wall_bricks"]
 
 CELLS = Path(__file__).resolve().parents[2] / "assemblies" / "cells"
 DOWN = (0, -1)
@@ -37,6 +37,12 @@ OVERHANG = _make("overhang", {"plate": [[0, 0], [40, 0], [40, 10], [0, 10]],
                               "low": [[10, 10], [30, 10], [30, 20], [10, 20]],
                               "high": [[22, 20], [42, 20], [42, 30], [22, 30]]})
 
+# a 10 x 10 block between the two walls of a vertical slot, touching both, 10 above its floor:
+# only pre-stress (the walls squeezing it) could hold it by friction
+WEDGED = _make("wedged", {"base": [[0, 0], [30, 0], [30, 30], [20, 30], [20, 10], [10, 10],
+                                   [10, 30], [0, 30]],
+                          "block": [[10, 20], [20, 20], [20, 30], [10, 30]]})
+
 
 def wall_bricks() -> list[str]:
     """The wall's bricks bottom-up, course by course, left to right."""
@@ -62,6 +68,9 @@ AGREEMENT = [
     ("centring, left", CENTRING, ["centring", "left"], "centring", DOWN, 0.5, True),
     ("centring, left right", CENTRING, ["centring", "left", "right"], "centring", DOWN, 0.5, True),
     ("centring, arch", CENTRING, CENTRING.ids, "centring", DOWN, 0.5, True),
+    ("wedged block", WEDGED, WEDGED.ids, "base", DOWN, 1.0, False),
     ("wall", WALL, WALL.ids, "plate", DOWN, 0.5, True),
+    ("wall, brick held by a neighbour", WALL, ["plate", "c0_b0", "c1_b0", "c1_b1"], "plate", DOWN,
+     0.5, False),
     ("wall upside down", WALL, WALL.ids, "plate", (0, 1), 0.5, False),
 ]
