@@ -13,7 +13,8 @@ from pathlib import Path
 from rap.errors import InputError
 from rap.files import write_text_atomic
 
-__all__ = ["write_plan_json", "write_plan_csv", "print_result", "interval_text", "bound_lines"]
+__all__ = ["write_plan_json", "write_plan_csv", "write_outputs", "print_result", "interval_text",
+           "bound_lines"]
 
 
 def write_plan_json(result, path: Path) -> Path:
@@ -40,6 +41,23 @@ def write_plan_csv(result, path: Path) -> Path:
         return write_text_atomic(path, buf.getvalue(), newline="")
     except OSError as exc:
         raise InputError(f"--csv {path}: cannot write ({exc.strerror or exc})") from None
+
+
+def write_outputs(console, assembly, result, *, out=None, csv=None, picture=None) -> None:
+    """A found plan's ``--out`` JSON, ``--csv`` steps and ``--picture`` storyboard (R and its
+    interval in the title), each announced on ``console``."""
+    if out is not None:
+        console.print(f"plan written to {write_plan_json(result, out)}")
+    if csv is not None:
+        console.print(f"steps written to {write_plan_csv(result, csv)}")
+    if picture is not None:
+        from rap.render.pictures import storyboard
+
+        ci = "" if result.robustness_interval is None else \
+            f" {interval_text(result.robustness_interval, 3)}"
+        path = storyboard(assembly, result.steps, picture, title=f"{assembly.name}: "
+                          f"{result.method}, R = {result.robustness:.3f}{ci}")
+        console.print(f"storyboard written to {path}")
 
 
 def interval_text(lo_hi, digits: int = 2) -> str:

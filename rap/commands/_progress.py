@@ -7,13 +7,15 @@ the moment it is entered, so a long plan shows it within a second of starting, a
 when done: the table, ``--out``, ``--csv`` and ``--json`` output are untouched. On a stderr that is
 not a terminal (a pipe, a log file, a test) it shows nothing at all.
 
-``Activity.update(text)`` sets the figures; ``Activity.scorer_progress`` is the callback a
+``Activity.update(text)`` sets the figures (``Activity.status(text)``: the same as a context manager,
+in the shape of ``rich.console.Console.status``); ``Activity.scorer_progress`` is the callback a
 ``rap.plan.scorers.Scorer`` calls (``on_progress``) after each batch: operations scored by the
 model, simulated, taken from the score cache, and the batch being simulated now.
 """
 
 from __future__ import annotations
 
+import contextlib
 import sys
 
 __all__ = ["activity", "Activity"]
@@ -48,6 +50,13 @@ class Activity:
     def update(self, text: str) -> None:
         """Show ``text`` after the label."""
         self._progress.update(self._task, text=text)
+
+    @contextlib.contextmanager
+    def status(self, text: str):
+        """``Console.status``'s shape: show ``text`` while the block runs (so code written for a
+        console's status line runs unchanged under an activity, with one live display)."""
+        self.update(text)
+        yield self
 
     def scorer_progress(self, stats, running: int = 0) -> None:
         """``Scorer.on_progress``: the scorer's counters (``ScorerStats``) and the operations

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import typer
 
-from rap.commands._plan_output import print_result, write_plan_csv, write_plan_json
+from rap.commands._plan_output import print_result, write_outputs, write_plan_json
 from rap.errors import EXIT_INFEASIBLE, InputError, ParameterError, RapError
 from rap.plan.methods import (DEFAULT_METHOD, METHODS, RandomOptions, check_options,
                               method_options, needs_model, option_named)
@@ -157,6 +157,7 @@ def plan_command(
 ):
     """Plan a robust assembly sequence and print it (step, parts, direction, score, source)."""
     from rap.commands._console import console as make_console
+    from rap.commands._progress import activity
     from rap.io import load_assembly
     from rap.seeds import DEFAULT_ROOT_SEED
 
@@ -175,17 +176,20 @@ def plan_command(
     if server is not None:
         _check_server_settings(settings, options)
     settings["constraints"] = cell
-    asm = load_assembly(assembly)
-    _check_cell(cell, asm)
-    t0 = time.perf_counter()
-    if server is not None:
-        result, on_ray = _plan_by_service(assembly, asm, method, seed, options, server, token,
-                                          console, cell), False
-        settings["cache"] = None
-    else:
-        root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
-        result, on_ray = _plan_with_workers(asm, method, root_seed, options, settings, console,
-                                            err)
+    # a transient progress line on stderr (a terminal only) from here to the table
+    with activity(f"planning {Path(assembly).name}", err) as progress:
+        progress.update("reading the assembly")
+        asm = load_assembly(assembly)
+        _check_cell(cell, asm)
+        t0 = time.perf_counter()
+        if server is not None:
+            result, on_ray = _plan_by_service(assembly, asm, method, seed, options, server,
+                                              token, progress, cell), False
+            settings["cache"] = None
+        else:
+            root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
+            result, on_ray = _plan_with_workers(asm, method, root_seed, options, settings,
+                                                progress, err)
     _show(console, err, asm, result, time.perf_counter() - t0, out=out, picture=picture,
           server=server, on_ray=on_ray, cache_path=settings["cache"], csv=csv)
 
@@ -248,7 +252,8 @@ def _check_server_settings(settings: dict, options: dict) -> None:
 def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, server: str, token,
                      console, constraints=None):
     """Step 2, with ``--server``: the service plans; the method's options travel with the
-    request. The client's errors name the parameter ``server``: here, the flag."""
+    request. The client's errors name the parameter ``server``: here, the flag. ``console``:
+    anything with ``status(text)`` (the command's progress ``Activity``, or a rich console)."""
     from rap.client import ServiceError, plan_body, post_plan
     from rap.commands._flags import flags
     from rap.plan.result import PlanResult
@@ -273,7 +278,8 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
                        err):
     """Step 2 otherwise: plan here (``_plan_here``) or on a Ray cluster (``--address``,
     ``$RAY_ADDRESS``), with the model (the shipped one by default) and the score cache.
-    (result, whether on Ray); ``settings["cache"]`` becomes the cache file used, or None."""
+    (result, whether on Ray); ``settings["cache"]`` becomes the cache file used, or None.
+    ``console``: anything with ``status(text)``; the command passes its progress ``Activity``."""
     from rap.plan.cache import default_cache_path
     from rap.sim.params import SimParams
 
@@ -284,13 +290,11 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
     address = settings["address"]
     address = None if settings["no_ray"] else (address or os.environ.get("RAY_ADDRESS") or None)
     space, workers = settings["space"], settings["workers"]
-    if address is None:  # a transient progress line on stderr from the start (a terminal only)
-        from rap.commands._progress import activity
-
-        with activity(f"planning {asm.name} with {method}", err) as progress:
-            return _plan_here(asm, method, params, root_seed, space, model_path, cache_path,
-                              _local_workers(workers), err, options, progress=progress,
-                              constraints=settings.get("constraints")), False
+    if address is None:  # ``console``: the command's progress Activity, told what happens
+        return _plan_here(asm, method, params, root_seed, space, model_path, cache_path,
+                          _local_workers(workers), err, options,
+                          progress=console if hasattr(console, "scorer_progress") else None,
+                          constraints=settings.get("constraints")), False
     import rap.farm.service as service
 
     if model_path is not None:
@@ -323,18 +327,7 @@ def _show(console, err, asm, result, wall: float, *, out, picture, server, on_ra
     print_result(console, result, wall_s=wall, ray=on_ray)
     if server is not None:
         console.print(f"planned by the service at {server}", style="dim")
-    if out is not None:
-        console.print(f"plan written to {write_plan_json(result, out)}")
-    if csv is not None:
-        console.print(f"steps written to {write_plan_csv(result, csv)}")
-    if picture is not None:
-        from rap.render.pictures import storyboard
-
-        lo_hi = result.robustness_interval
-        ci = "" if lo_hi is None else f" [{lo_hi[0]:.3f}, {lo_hi[1]:.3f}]"
-        path = storyboard(asm, result.steps, picture,
-                          title=f"{asm.name}: {result.method}, R = {result.robustness:.3f}{ci}")
-        console.print(f"storyboard written to {path}")
+    write_outputs(console, asm, result, out=out, csv=csv, picture=picture)
     if cache_path is not None:
         console.print(f"score cache: {cache_path}", style="dim")
 
@@ -349,6 +342,7 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
                options: dict | None = None, constraints=None, progress=None):
     """Plan in this process; simulation batches over ``workers`` forked processes; ``options``:
     ``make_planner``'s (None: the default); ``progress``: an ``Activity`` told what happens."""
+    from rap.commands._progress import activity
     from rap.plan.cache import ScoreCache
     from rap.plan.methods import make_planner
     from rap.plan.constraints import CellConstraints
@@ -358,9 +352,8 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
 
     # simulation workers first: they load the simulator while this process loads the model,
     # renders and scores (see LocalSimulator's prestart)
-    if progress is not None:
-        progress.update("starting simulation workers" + (", loading the model" if model_path
-                                                         else ""))
+    progress = progress or activity("", enabled=False)  # an Activity told what happens
+    progress.update("starting simulation workers" + (", loading the model" * bool(model_path)))
     sim = LocalSimulator(processes=workers, prestart=True)
     try:
         cnn = _load_cnn(model_path) if model_path else None
@@ -372,12 +365,11 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
                 cnn.cores_busy = sim.loading
         cache_obj = ScoreCache(cache_path)
         planner = make_planner(method, **(options or {}))
-        if progress is not None:
-            progress.update("building the NDBG")
-            problem.candidates(problem.whole)  # builds it (once, kept by the problem)
-            progress.update("NDBG built; planning")
-        result = planner.solve(problem, Scorer(sim, cnn, cache_obj, on_progress=None if progress
-                                               is None else progress.scorer_progress))
+        progress.update("building the NDBG")
+        problem.candidates(problem.whole)  # builds it (once, kept by the problem)
+        progress.update("NDBG built; planning")
+        result = planner.solve(problem, Scorer(sim, cnn, cache_obj,
+                                               on_progress=progress.scorer_progress))
     finally:
         sim.close()
     cache_obj.flush()

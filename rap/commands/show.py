@@ -13,8 +13,9 @@ def show(
     assembly: Path = typer.Argument(..., help="Assembly JSON file."),
     out: Path = typer.Option(..., "-o", "--out", help="Picture to write (.png or .svg)."),
 ) -> None:
-    """Draw the assembly with part ids and its NDBG circle, arcs shaded by how many partitions
-    of the whole assembly they admit."""
+    """Draw the assembly with part ids and its NDBG circle of removal directions (removal =
+    -insertion, the direction plan shows), arcs shaded by how many partitions of the whole
+    assembly they admit."""
     from rap.io import load_assembly
     from rap.geometry.ndbg import build_ndbg
     from rap.geometry.partitions import cell_partition_counts

@@ -285,7 +285,9 @@ PLAN_BODY_OPENAPI = {
                         "gravity": {"type": "string", "description": "DX,DY; needs base"},
                         "friction": {"type": "number", "minimum": 0, "default": 0.5}}}}}}},
     },
-    "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document)"},
+    "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document: units, "
+                                         "R and its interval, steps with insertion, score "
+                                         "interval, reason and robot poses; README, Plan files)"},
                   "400": {"description": "Malformed request or invalid assembly"},
                   "401": {"description": "Missing or wrong bearer token"},
                   "413": {"description": "Body or assembly too large"},
