@@ -111,12 +111,12 @@ def annotate_plan(result: PlanResult, problem, approach_distance: float | None =
 
 
 def plan_rows(result: PlanResult) -> list[dict]:
-    """One dict per step of a found plan, keyed by ``CSV_COLUMNS`` (parts joined by spaces;
-    unknown values as empty strings)."""
+    """One dict per step of a found plan, keyed by ``CSV_COLUMNS`` (part ids joined by commas,
+    as the table shows them: ids never hold one; unknown values as empty strings)."""
     rows = []
     for k, s in enumerate(result.steps, 1):
         r, lo_hi = s.robot, s.score_interval
-        row = {"step": k, "moving": " ".join(s.moving), "fixed": " ".join(s.fixed),
+        row = {"step": k, "moving": ",".join(s.moving), "fixed": ",".join(s.fixed),
                "insertion_x": s.insertion[0] + 0.0, "insertion_y": s.insertion[1] + 0.0,
                "units": result.units, "score": "" if s.score is None else s.score,
                "score_low": "" if lo_hi is None else lo_hi[0],

@@ -64,7 +64,7 @@ def test_the_csv_has_one_row_a_step_and_agrees_with_the_json(planned):
     assert list(table.columns) == list(CSV_COLUMNS)
     assert list(table["step"]) == list(range(1, len(doc["steps"]) + 1))
     for (_, row), s in zip(table.iterrows(), doc["steps"]):
-        assert row["moving"].split() == s["moving"] and row["fixed"].split() == s["fixed"]
+        assert row["moving"].split(",") == s["moving"] and row["fixed"].split(",") == s["fixed"]
         assert (row["insertion_x"], row["insertion_y"]) == tuple(s["insertion"])
         assert (row["start_x"], row["start_y"]) == tuple(s["robot"]["start"])
         assert (row["approach_x"], row["approach_y"]) == tuple(s["robot"]["approach"])
