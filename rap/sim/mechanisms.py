@@ -25,14 +25,14 @@ nothing (mechanisms of several parts together are left to the program). Floats (
 contact points and the centroid in normalised units of order 1, decisions with the tolerance
 ``TOL``.
 
-Cost: O(k^2) for a part with k contact points (numpy), per part.
+Cost: O(P K^2) for P parts of at most K contact points each, in one batch of numpy operations.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["Mechanism", "single_part_mechanism", "TOL"]
+__all__ = ["Mechanism", "part_mechanisms", "single_part_mechanism", "TOL"]
 
 TOL = 1e-9
 
@@ -55,52 +55,83 @@ class Mechanism(tuple):
         return self[1]
 
 
-def _tipping(points: np.ndarray, normals: np.ndarray, centroid: np.ndarray,
-             g: np.ndarray) -> Mechanism | None:
-    # r[i, j] = point j - pivot i; velocity of j under a unit CCW rotation about i: perp(r)
-    r = points[None, :, :] - points[:, None, :]
-    perp = np.stack([-r[..., 1], r[..., 0]], axis=-1)
-    vn = (perp * normals[None, :, :]).sum(axis=-1)  # [pivot, point] normal velocity, CCW
-    at_pivot = np.hypot(r[..., 0], r[..., 1]) <= TOL
-    rc = centroid[None, :] - points
-    power = -rc[:, 1] * g[0] + rc[:, 0] * g[1]  # gravity's power on a unit CCW rotation
+def _perp(v: np.ndarray) -> np.ndarray:
+    return np.stack([-v[..., 1], v[..., 0]], axis=-1)
+
+
+def _tipping(points, normals, valid, centroids, g) -> tuple[np.ndarray, np.ndarray]:
+    """[P] whether each part tips, [P] the pivot's index."""
+    # r[p, i, j] = point j - pivot i; velocity of j under a unit CCW rotation about i: perp(r)
+    r = points[:, None, :, :] - points[:, :, None, :]
+    vn = (_perp(r) * normals[:, None, :, :]).sum(axis=-1)  # [P, pivot, point], CCW rotation
+    still = (np.hypot(r[..., 0], r[..., 1]) <= TOL) | ~valid[:, None, :]  # the pivot, padding
+    power = (_perp(centroids[:, None, :] - points) * g).sum(axis=-1)  # [P, pivot], CCW
+    tips = np.zeros(valid.shape, dtype=bool)
     for sense in (1.0, -1.0):
-        opens = (at_pivot | (sense * vn > TOL)).all(axis=1)
-        tips = opens & (sense * power > -TOL)
-        if tips.any():
-            i = int(np.flatnonzero(tips)[0])
-            return Mechanism("tip", (float(points[i, 0]), float(points[i, 1])))
-    return None
+        tips |= (still | (sense * vn > TOL)).all(axis=2) & (sense * power > -TOL) & valid
+    return tips.any(axis=1), tips.argmax(axis=1)
 
 
-def _sliding(normals: np.ndarray, g: np.ndarray, friction: float) -> Mechanism | None:
-    tangents = np.stack([-normals[:, 1], normals[:, 0]], axis=1)
-    for d in (g, *tangents, *(-tangents)):
-        along = float(g @ d)
-        if along <= TOL:
-            continue
-        dn = normals @ d
-        if (dn < -TOL).any():
-            continue  # the motion closes a contact
-        touching = np.abs(dn) <= TOL
-        if not touching.any():
-            return Mechanism("fall" if d is g else "slide", (float(d[0]), float(d[1])))
-        # the sliding contacts' normals are all +n or -n (perpendicular to d); gravity presses
-        # the part onto those along +n with -g.n (if positive); with contacts on both sides
-        # (a wedge) the least total normal force is |g.n|, all on one side
-        n = normals[touching][0]
-        two_sided = bool((normals[touching] @ n < 0).any())
-        pressed = abs(float(g @ n)) if two_sided else max(0.0, -float(g @ n))
-        if along > friction * pressed + TOL:
-            return Mechanism("slide", (float(d[0]), float(d[1])))
-    return None
+def _sliding(normals, valid, g, friction) -> tuple[np.ndarray, np.ndarray]:
+    """[P] whether each part slides or falls, [P, 2] the direction of motion."""
+    n_parts = len(normals)
+    tangents = _perp(normals)
+    dirs = np.concatenate([np.broadcast_to(g, (n_parts, 1, 2)), tangents, -tangents], axis=1)
+    dir_ok = np.concatenate([np.ones((n_parts, 1), dtype=bool), valid, valid], axis=1)
+    along = dirs @ g  # [P, C]
+    dn = np.einsum("pkx,pcx->pkc", normals, dirs)
+    closes = ((dn < -TOL) & valid[:, :, None]).any(axis=1)
+    touching = (np.abs(dn) <= TOL) & valid[:, :, None]
+    # the sliding contacts' normals are +m or -m, m = the direction turned left; gravity presses
+    # the part onto contacts of normal +m with -g.m (if positive); with contacts on both sides
+    # (a wedge) the least total normal force is |g.m|, all on one side
+    m = _perp(dirs)
+    side = np.einsum("pkx,pcx->pkc", normals, m) * touching
+    plus, minus = (side > 0.5).any(axis=1), (side < -0.5).any(axis=1)
+    gm = m @ g
+    pressed = np.where(plus & minus, np.abs(gm),
+                       np.where(plus, np.maximum(0.0, -gm), np.maximum(0.0, gm)))
+    moves = dir_ok & (along > TOL) & ~closes & (along > friction * pressed + TOL)
+    first = moves.argmax(axis=1)
+    return moves.any(axis=1), dirs[np.arange(n_parts), first]
+
+
+def part_mechanisms(points: np.ndarray, normals: np.ndarray, valid: np.ndarray,
+                    centroids: np.ndarray, gravity: np.ndarray,
+                    friction: float) -> list[Mechanism | None]:
+    """For P parts at once: ``points`` and ``normals`` [P, K, 2] (contact points, unit normals
+    into the part; rows padded to K, ``valid`` [P, K] marks the real ones), ``centroids`` [P, 2],
+    ``gravity`` [2] a unit vector. Each part's motion with every other part fixed (see the module
+    doc), or None: a tip when there is one, else a slide or a fall."""
+    g = np.asarray(gravity, dtype=float)
+    if points.shape[1] == 0:
+        return [Mechanism("fall", (float(g[0]), float(g[1])))] * len(points)
+    tips, pivot = _tipping(points, normals, valid, centroids, g)
+    slides, where = _sliding(normals, valid, g, friction)
+    out: list[Mechanism | None] = []
+    for p in range(len(points)):
+        if not valid[p].any():
+            out.append(Mechanism("fall", (float(g[0]), float(g[1]))))
+        elif tips[p]:
+            x, y = points[p, pivot[p]]
+            out.append(Mechanism("tip", (float(x), float(y))))
+        elif slides[p]:
+            d = where[p]
+            free = not (np.abs(normals[p][valid[p]] @ d) <= TOL).any()
+            kind = "fall" if free and np.allclose(d, g) else "slide"
+            out.append(Mechanism(kind, (float(d[0]), float(d[1]))))
+        else:
+            out.append(None)
+    return out
 
 
 def single_part_mechanism(points: np.ndarray, normals: np.ndarray, centroid: np.ndarray,
                           gravity: np.ndarray, friction: float) -> Mechanism | None:
-    """A motion of one part (see the module doc), or None. ``points`` [k, 2] its contact points,
-    ``normals`` [k, 2] the unit contact normals pointing into the part, ``centroid`` [2],
+    """One part's motion (``part_mechanisms`` for a single part): ``points`` [k, 2] its contact
+    points, ``normals`` [k, 2] the unit contact normals pointing into the part, ``centroid`` [2],
     ``gravity`` [2] a unit vector; the other parts are fixed."""
-    if len(points) == 0:
-        return Mechanism("fall", (float(gravity[0]), float(gravity[1])))
-    return _tipping(points, normals, centroid, gravity) or _sliding(normals, gravity, friction)
+    pts = np.asarray(points, dtype=float).reshape(1, -1, 2)
+    nrm = np.asarray(normals, dtype=float).reshape(1, -1, 2)
+    return part_mechanisms(pts, nrm, np.ones(pts.shape[:2], dtype=bool),
+                           np.asarray(centroid, dtype=float).reshape(1, 2), gravity,
+                           friction)[0]
