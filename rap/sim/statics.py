@@ -242,9 +242,8 @@ def _mechanism_reason(geo: _Geometry, chosen: set[str], movers: list[str],
             continue
         if found.kind == "tip":
             x, y = (geo.center[i] + geo.size * found.where[i] for i in (0, 1))
-            return (f"part {part!r} would tip about ({x:.4g}, {y:.4g}): nothing presses it "
-                    f"against the parts that would have to hold it")
-        dx, dy = found.where
+            return f"part {part!r} would tip over about ({x:.4g}, {y:.4g})"
+        dx, dy = (v + 0.0 for v in found.where)  # + 0.0: no "-0" in the message
         return (f"part {part!r} would {found.kind} along ({dx:.3g}, {dy:.3g}) with friction "
                 f"{mu:g}")
     return ""
@@ -282,13 +281,14 @@ def _solve(assembly: Assembly, chosen: set[str], base: str, g: tuple[float, floa
                   method="highs")
     if res.status == 0:
         return Support(True)
-    blamed = _blame(a_eq, b_eq, m, movers) if res.status == 2 else []
-    who = _names(blamed) if blamed else _names(movers)
-    verb = "has" if len(blamed) == 1 else "have"
-    if res.status != 2:
-        return Support(False, f"{who}: the equilibrium program failed ({res.message})")
-    return Support(False, f"{who} {verb} no equilibrium under gravity with friction {mu:g}: "
-                          f"{'it' if len(blamed) == 1 else 'they'} would slide or tip")
+    if res.status != 2:  # HiGHS gave up (numerical trouble): not shown stable
+        return Support(False, f"{_names(movers)}: the equilibrium program failed "
+                              f"({res.message})")
+    named = _blame(a_eq, b_eq, m, movers) or movers
+    one = len(named) == 1
+    return Support(False, f"{_names(named)} {'has' if one else 'have'} no equilibrium under "
+                          f"gravity with friction {mu:g}: {'it' if one else 'they'} would slide "
+                          f"or tip")
 
 
 def check_static(assembly: Assembly, ids: Iterable[str], base: str,

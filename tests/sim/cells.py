@@ -8,7 +8,7 @@ from pathlib import Path
 from rap.io import load_assembly, parse_assembly
 
 __all__ = ["CELLS", "STACK", "ARCH", "CENTRING", "WALL", "SLOPE", "CANTILEVER", "OVERHANG",
-           "WEDGED", "AGREEMENT", "DOWN", "wall_bricks"]
+           "WEDGED", "AFRAME", "AGREEMENT", "DOWN", "wall_bricks"]
 
 CELLS = Path(__file__).resolve().parents[2] / "assemblies" / "cells"
 DOWN = (0, -1)
@@ -42,6 +42,12 @@ OVERHANG = _make("overhang", {"plate": [[0, 0], [40, 0], [40, 10], [0, 10]],
 WEDGED = _make("wedged", {"base": [[0, 0], [30, 0], [30, 30], [20, 30], [20, 10], [10, 10],
                                    [10, 30], [0, 30]],
                           "block": [[10, 20], [20, 20], [20, 30], [10, 30]]})
+# two slabs leaning on each other (touching along x = 50, 40 <= y <= 50) on a ground plate:
+# neither moves alone (each would push into the other), together they splay unless the friction
+# on the ground holds their thrust (between 0.3 and 0.4); only the program sees it
+AFRAME = _make("a-frame", {"ground": [[0, 0], [100, 0], [100, 10], [0, 10]],
+                           "left": [[10, 10], [20, 10], [50, 40], [50, 50]],
+                           "right": [[80, 10], [90, 10], [50, 50], [50, 40]]})
 
 
 def wall_bricks() -> list[str]:
@@ -69,6 +75,8 @@ AGREEMENT = [
     ("centring, left right", CENTRING, ["centring", "left", "right"], "centring", DOWN, 0.5, True),
     ("centring, arch", CENTRING, CENTRING.ids, "centring", DOWN, 0.5, True),
     ("wedged block", WEDGED, WEDGED.ids, "base", DOWN, 1.0, False),
+    ("a-frame, friction 0.2", AFRAME, AFRAME.ids, "ground", DOWN, 0.2, False),
+    ("a-frame, friction 0.6", AFRAME, AFRAME.ids, "ground", DOWN, 0.6, True),
     ("wall", WALL, WALL.ids, "plate", DOWN, 0.5, True),
     ("wall, brick held by a neighbour", WALL, ["plate", "c0_b0", "c1_b0", "c1_b1"], "plate", DOWN,
      0.5, False),

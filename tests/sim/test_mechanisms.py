@@ -68,4 +68,4 @@ def test_check_static_rejects_pre_stressed_equilibria():
     got = check_static(WEDGED, WEDGED.ids, "base", DOWN, friction=10.0)
     assert not got.stable and "'block' would slide" in got.reason
     got = check_static(WALL, ["plate", "c0_b0", "c1_b0", "c1_b1"], "plate", DOWN)
-    assert not got.stable and "'c1_b1' would tip about (19.5, 10)" in got.reason
+    assert not got.stable and "'c1_b1' would tip over about (19.5, 10)" in got.reason

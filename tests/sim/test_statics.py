@@ -12,8 +12,8 @@ from scipy.optimize import linprog
 from rap.geometry.contacts import contacts_within, touching
 from rap.sim.settling import settle
 from rap.sim.statics import DEFAULT_MARGIN, Support, _geometry, _system, check_static
-from tests.sim.cells import (AGREEMENT, ARCH, CANTILEVER, CENTRING, DOWN, OVERHANG, SLOPE, STACK,
-                             WALL, WEDGED, wall_bricks)
+from tests.sim.cells import (AFRAME, AGREEMENT, ARCH, CANTILEVER, CENTRING, DOWN, OVERHANG, SLOPE,
+                             STACK, WALL, WEDGED, wall_bricks)
 
 
 def test_base_alone_is_stable():
@@ -52,6 +52,13 @@ def test_cantilever_tips_once_its_centroid_overhangs():
     assert not got.stable and "'long'" in got.reason
     got = check_static(OVERHANG, OVERHANG.ids, "plate", DOWN)
     assert not got.stable and "'high'" in got.reason and "'low'" not in got.reason
+
+
+def test_parts_that_fail_together_are_named_by_the_program():
+    got = check_static(AFRAME, AFRAME.ids, "ground", DOWN, friction=0.2)
+    assert not got.stable
+    assert got.reason.startswith("parts 'left', 'right' have no equilibrium")
+    assert check_static(AFRAME, AFRAME.ids, "ground", DOWN, friction=0.6).stable
 
 
 def test_arch_stands_only_with_its_keystone():
