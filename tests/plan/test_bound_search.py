@@ -113,9 +113,9 @@ def test_the_bound_never_falls_below_the_plan_and_covers_the_optimum(seed):
 
 
 def test_gap_stops_early_and_says_so():
-    problem = PlanningProblem(six("grid"), PARAMS)
+    problem = PlanningProblem(six("mixed-square"), PARAMS)
     best = optimum(problem)
-    width = 0.1
+    width = 0.2
     runs = {}
     for gap in (None, 0.1):
         runs[gap] = SearchPlanner(bounds=covering(width), upper=1.0, simulations=10_000,
@@ -182,3 +182,14 @@ def test_options_names_and_json():
         problem, scorer(low(0))).bound["note"]
     assert math.isclose(found.bound["robustness_upper"],
                         max(found.bound["robustness_upper"], found.robustness))
+
+
+def test_bounds_simulate_a_few_operations_a_round_most_raised_first():
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    for per_round in (1, 2):
+        s = scorer(low(5))
+        found = SearchPlanner(bounds=covering(), upper=1.0, simulations=6,
+                              bound_round=per_round).solve(problem, s)
+        checked(problem, found)
+        assert found.stats["search_simulations"] == 6 and found.stats["stopped"] == "budget"
+        assert s.simulator.calls >= 6 // per_round  # rounds of at most per_round (+ evaluation)
