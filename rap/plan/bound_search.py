@@ -193,9 +193,9 @@ def report(robustness: float, value: float, confidence: float, scope: str,
         note = bounds.provenance.get("note", "no calibration: unsimulated operations bounded by 1")
     else:
         src = bounds.provenance
-        what = ", ".join(f"{k} {src[k]}" for k in ("model", "calibration", "date") if k in src)
+        what = ", ".join(str(src[k]) for k in ("model", "set", "date") if k in src)
         note = (f"split-conformal bounds per operation at level {level:.4g} (Bonferroni over "
-                f"{steps} steps)" + (f"; {what}" if what else ""))
+                f"{steps} steps)" + (f", calibrated: {what}" if what else ""))
     if scope == "beam":
         note += "; over the final beam's sequences only, not every sequence"
     return {"robustness_upper": v, "confidence": float(confidence),
