@@ -178,10 +178,10 @@ class SearchPlanner(Planner):
         """Whether the incumbent ``best`` stops the search against the bound ``value``."""
         if best <= 0.0:
             return False
-        if self.gap is not None and best >= (1.0 - self.gap) * value:
-            stats.update(stopped="gap", gap=self.gap)
-        elif best >= value * SLACK:
+        if best >= value * SLACK:  # nothing left can beat it (the stronger claim first)
             stats["stopped"] = "bound"
+        elif self.gap is not None and best >= (1.0 - self.gap) * value:
+            stats.update(stopped="gap", gap=self.gap)
         else:
             return False
         stats.update(search_bound=value, stopped_after=spent, predicted_robustness=best)
