@@ -15,6 +15,9 @@ from pathlib import Path
 
 import typer
 
+from rap.commands._cell_flags import (BASE, DIRECTIONS, FRICTION, GRAVITY, LAYERS, LINEAR,
+                                     cell_constraints)
+
 __all__ = ["register", "experiment_command"]
 
 
@@ -44,16 +47,8 @@ def experiment_command(
     start_timeout: float = typer.Option(120.0, "--start-timeout", min=1.0,
                                         help="Seconds the simulation actors may take to start."),
     # the robot cell's constraints, for every assembly and method (as rap-farm plan's)
-    base: str = typer.Option(None, "--base", help="Part fixed in the fixture (in every "
-                             "assembly): it never moves."),
-    linear: bool = typer.Option(False, "--linear", help="One arm: every step moves one part."),
-    directions: list[str] = typer.Option(None, "--directions", help="DX,DY:DEG: insertion "
-                                         "directions within DEG degrees of (DX,DY) "
-                                         "(repeatable)."),
-    gravity: str = typer.Option(None, "--gravity", help="DX,DY: gravity in the plane (needs "
-                                "--base): every intermediate assembly statically stable."),
-    friction: float = typer.Option(None, "--friction", help="Coulomb friction with --gravity "
-                                   "[default: 0.5]."),
+    base: str = BASE, linear: bool = LINEAR, directions: list[str] = DIRECTIONS,
+    gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,
 ):
     """Compare RAP, sim-only, optimal and random planning on every assembly (paper, section 8)."""
     from rap.io import load_assembly
@@ -63,11 +58,7 @@ def experiment_command(
                                      run_experiment)
     from rap.plan.experiment_report import write_report
 
-    from rap.commands._flags import flags
-    from rap.plan.constraints import CellConstraints
-
-    with flags("base", "linear", "directions", "gravity", "friction"):
-        cell = CellConstraints.parse(base, linear, directions, gravity, friction)
+    cell = cell_constraints(base, linear, directions, gravity, friction, layers)
     if not (Path(dataset) / "_rapfarm.json").is_file():
         raise InputError(f"{dataset}: not a rap-farm dataset (no _rapfarm.json)")
     wanted = [m.strip() for m in methods.split(",") if m.strip()]

@@ -29,6 +29,8 @@ from pathlib import Path
 
 import typer
 
+from rap.commands._cell_flags import (BASE, DIRECTIONS, FRICTION, GRAVITY, LAYERS, LINEAR,
+                                     cell_constraints)
 from rap.commands._plan_output import print_result, write_outputs, write_plan_json
 from rap.errors import EXIT_INFEASIBLE, InputError, ParameterError, RapError
 from rap.plan.methods import (DEFAULT_METHOD, METHODS, RandomOptions, check_options,
@@ -141,17 +143,8 @@ def plan_command(
     confidence: float = _method_flag("confidence"),
     gap: float = _method_flag("gap"),
     # the robot cell's constraints (rap.plan.constraints; docs/PLANNING.md, Robot-cell constraints)
-    base: str = typer.Option(None, "--base", help="Part fixed in the fixture from the start: "
-                             "it never moves (every step's fixed side holds it)."),
-    linear: bool = typer.Option(False, "--linear", help="One arm: every step moves one part."),
-    directions: list[str] = typer.Option(None, "--directions", help="DX,DY:DEG: insertion "
-                                         "directions within DEG degrees of (DX,DY), e.g. "
-                                         "0,-1:30 (repeatable: any of the cones)."),
-    gravity: str = typer.Option(None, "--gravity", help="DX,DY: gravity in the drawing's plane "
-                                "(needs --base): every intermediate assembly stands statically "
-                                "on the base; e.g. 0,-1."),
-    friction: float = typer.Option(None, "--friction", help="Coulomb friction at the contacts "
-                                   "with --gravity [default: 0.5]."),
+    base: str = BASE, linear: bool = LINEAR, directions: list[str] = DIRECTIONS,
+    gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
                                 "actors with --address [default: all CPUs]."),
 ):
@@ -167,7 +160,7 @@ def plan_command(
                    simulations=simulations, trust=trust, optimism=optimism, upper=upper,
                    confidence=confidence, gap=gap)  # None: not given
     _check_request(method, space, options, out, picture, err)
-    cell = _cell_constraints(base, linear, directions, gravity, friction)
+    cell = cell_constraints(base, linear, directions, gravity, friction, layers)
     _check_suffix(csv, "--csv", (".csv",))
     settings = dict(address=address, no_ray=no_ray, model=model, trials=trials, space=space,
                     cache=cache, no_cache=no_cache, workers=workers)
@@ -192,16 +185,6 @@ def plan_command(
                                                 progress, err)
     _show(console, err, asm, result, time.perf_counter() - t0, out=out, picture=picture,
           server=server, on_ray=on_ray, cache_path=settings["cache"], csv=csv)
-
-
-def _cell_constraints(base, linear, directions, gravity, friction):
-    """The cell's constraints of the flags (``rap.plan.constraints``); one line naming the flag
-    for a bad value."""
-    from rap.commands._flags import flags
-    from rap.plan.constraints import CellConstraints
-
-    with flags("base", "linear", "directions", "gravity", "friction"):
-        return CellConstraints.parse(base, linear, directions, gravity, friction)
 
 
 def _check_cell(cell, asm) -> None:

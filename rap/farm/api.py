@@ -18,7 +18,7 @@ are those of ``rap-farm plan`` for the method asked for (search: ``simulations``
 ``rap.io.load_assembly`` reads a file, and an invalid assembly gets the CLI's
 ``AssemblyError`` text with ``assembly`` as its source. The optional ``constraints`` object is the
 robot cell's (``rap.plan.constraints.CellConstraints.from_json``: ``{"base": "plate", "linear":
-true, "directions": ["0,-1:30"], "gravity": "0,-1", "friction": 0.5}``), checked as the CLI's
+true, "directions": ["0,-1:30"], "gravity": "0,-1", "friction": 0.5, "layers": true}``), checked as the CLI's
 flags are (one-line 400 naming ``constraints.KEY``; the base must be a part of the assembly). ``read_upload(name, body)`` reads an
 uploaded file (``POST /import``, ``/inspect``): a drawing (.dxf, .svg) or an assembly file (.json),
 written under its own name in a temporary directory and read by ``rap.io.load_assembly``, which
@@ -275,7 +275,7 @@ PLAN_BODY_OPENAPI = {
                 "constraints": {
                     "type": "object", "additionalProperties": False,
                     "description": "The robot cell's constraints, as `rap-farm plan`'s --base, "
-                    "--linear, --directions, --gravity, --friction, e.g. {\"base\": \"plate\", "
+                    "--linear, --directions, --gravity, --friction, --layers, e.g. {\"base\": \"plate\", "
                     "\"linear\": true, \"directions\": [\"0,-1:30\"], \"gravity\": \"0,-1\"}",
                     "properties": {
                         "base": {"type": "string", "description": "Part fixed in the fixture"},
@@ -283,7 +283,9 @@ PLAN_BODY_OPENAPI = {
                         "directions": {"type": "array", "items": {"type": "string"},
                                        "description": "Insertion cones DX,DY:DEG"},
                         "gravity": {"type": "string", "description": "DX,DY; needs base"},
-                        "friction": {"type": "number", "minimum": 0, "default": 0.5}}}}}}},
+                        "friction": {"type": "number", "minimum": 0, "default": 0.5},
+                        "layers": {"type": "boolean", "description": "In layers against "
+                                   "gravity; needs gravity"}}}}}}},
     },
     "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document: units, "
                                          "R and its interval, steps with insertion, score "

@@ -19,6 +19,9 @@ strictly inside the range (an exact interior vector replaces it if floats ever f
   uniformly with the given ``np.random.Generator``. The count can be exponential in |S|; more than
   ``max_count`` (moving set, cell run) incidences raise
   ``rap.geometry.moving_sets.TooManyPartitions``.
+* ``single_part_partitions``: the partitions that move one part: per part of S, the maximal runs
+  of cells where nothing else of S blocks it (O(cells x |S|) bit operations): the operation
+  space of a cell that inserts one part at a time (the online choice may offer none of them).
 * ``interlocked`` / ``is_interlocked``: no feasible partition in any cell.
 * ``cell_partition_counts``: the number of feasible moving sets per cell (capped; pictures).
 * ``range_partition``: the ``Partition`` of a moving set over a run of cells (exact bounds, exact
@@ -41,7 +44,8 @@ from rap.geometry.moving_sets import (TooManyPartitions, cell_segments, changed_
 from rap.geometry.ndbg import NDBG
 from rap.operation import Operation
 
-__all__ = ["Partition", "range_partition", "online_partitions", "all_partitions",
+__all__ = ["Partition", "range_partition", "online_partitions", "single_part_partitions",
+           "all_partitions",
            "partition_specs", "partition_from_spec", "spec_is_vertex", "interlocked",
            "is_interlocked", "cell_partition_counts", "DEFAULT_MAX_COUNT"]
 
@@ -211,6 +215,23 @@ def online_partitions(ndbg: NDBG, subset: Iterable[str]) -> list[Partition]:
     for t in range(last + 1, N):
         choice[t] = cur
     parts = [range_partition(ndbg, mv, m, kf, kl, whole) for mv, kf, kl, whole in _runs(choice)]
+    parts.sort(key=lambda p: angle_key(p.range_start))
+    return parts
+
+
+def single_part_partitions(ndbg: NDBG, subset: Iterable[str]) -> list[Partition]:
+    """Every partition of S whose moving side is one part, over each maximal run of cells where
+    the rest of S does not block that part (CCW order of range starts, then part order). Empty
+    when S has one part. O(cells x |S|) big-int operations."""
+    m, idx = subset_mask(ndbg, subset)
+    if len(idx) < 2:
+        return []
+    parts = []
+    for i in idx:
+        bit = 1 << i
+        others = m & ~bit
+        free = [0 if cell.outs[i] & others else bit for cell in ndbg.cells]
+        parts += [range_partition(ndbg, mv, m, kf, kl, whole) for mv, kf, kl, whole in _runs(free)]
     parts.sort(key=lambda p: angle_key(p.range_start))
     return parts
 

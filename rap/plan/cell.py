@@ -5,14 +5,19 @@ operations of ``problem.splits(subset)`` that obey ``constraints`` (rules in
 ``rap.plan.constraints``): the base on the fixed side; one moving part with ``linear`` or
 ``gravity``; under ``gravity`` only subassemblies that hold the base, the whole assembly stable,
 and each operation's fixed side stable (``problem.stability``, memoised per subset); with
+``layers``, no part of the fixed side lying wholly above the moving part (``part_heights``); with
 ``directions``, each operation re-aimed at the middle of its range's exact intersection with the
 cones (``rap.geometry.cones.choose_direction``; the operation unchanged where the cones hold its
 whole range), dropped where they do not meet. An operation from a ``partition_fn`` (no range) is
-kept only when its own exact direction lies in a cone. Cost: per subset, one pass over its
-splits plus one stability check per distinct fixed side.
+kept only when its own exact direction lies in a cone. An operation is kept only when both its
+sides can be built under the same constraints (``buildable``, a memoised depth-first search), so
+that greedy planners, which never go back, do not walk into a dead end the constraints make (a
+wall whose bricks are taken away in an order that leaves one tipping). Cost: per subset, one pass
+over its splits plus one stability check per distinct fixed side, plus the search's visits.
 
 ``blocked_by(problem, subset)``: the subassembly and one line to blame when a planner found no
-way on at ``subset``: a real interlock (no operation even without the constraints) is shrunk to a
+way on at ``subset`` (followed down, through operations whose sides cannot be built, to one that
+no operation obeying the rules splits): a real interlock (no operation even without the constraints) is shrunk to a
 minimal interlocked set and named as today (``rap.plan.result.interlocked_message``); otherwise
 the constraint that removes the subassembly's last operations is found by lifting the rules one
 at a time (the rules whose lifting frees it are named together; all of them when none alone
@@ -31,7 +36,27 @@ from rap.operation import Operation
 from rap.plan.constraints import SCORE_NOTE, CellConstraints
 from rap.plan.result import interlocked_message
 
-__all__ = ["constrained_candidates", "blocked_by", "constraint_stats", "reaim"]
+__all__ = ["constrained_candidates", "blocked_by", "constraint_stats", "reaim", "part_heights"]
+
+_HEIGHTS: dict = {}  # (geometry hash, gravity) -> part_heights' answer; a few assemblies at most
+
+
+def part_heights(assembly, gravity) -> dict[str, tuple[Fraction, Fraction]]:
+    """part id -> (lowest, highest) height of its vertices along ``-gravity`` (exact rationals,
+    unnormalised: only comparisons matter). Part ``a`` lies wholly below ``b`` when
+    ``highest(a) <= lowest(b)``. O(vertices) once per (assembly, gravity), then memoised."""
+    key = (assembly.geometry_hash, tuple(Fraction(g) for g in gravity))
+    hit = _HEIGHTS.get(key)
+    if hit is None:
+        ux, uy = -key[1][0], -key[1][1]
+        hit = {}
+        for part in assembly.parts:
+            h = [ux * x + uy * y for x, y in part.outer]
+            hit[part.id] = (min(h), max(h))
+        if len(_HEIGHTS) >= 16:
+            _HEIGHTS.clear()
+        _HEIGHTS[key] = hit
+    return hit
 
 
 def reaim(op: Operation, partition, arcs, prefer) -> Operation | None:
@@ -53,8 +78,65 @@ def reaim(op: Operation, partition, arcs, prefer) -> Operation | None:
 
 def constrained_candidates(problem, subset: frozenset, c: CellConstraints
                            ) -> tuple[Operation, ...]:
-    """The operations of ``subset`` that obey ``c`` (module doc), in the problem's order."""
+    """The operations of ``subset`` that obey ``c`` (module doc), in the problem's order, and
+    whose two sides can themselves be built under ``c`` (``buildable``): a greedy planner never
+    walks into a dead end that the constraints make."""
     subset = frozenset(subset)
+    return tuple(op for op in _obeying(problem, subset, c)
+                 if buildable(problem, op.moving, c) and buildable(problem, op.fixed, c))
+
+
+def buildable(problem, subset, c: CellConstraints) -> bool:
+    """Can ``subset`` be assembled under ``c``? A depth-first search for one sequence, memoised
+    per (constraints, subset) in ``problem.cell_memo``; a single part is. Cost: at most one pass
+    over the rules' operations of each subassembly it visits (its first success ends it; an
+    unbuildable assembly visits every reachable one)."""
+    subset = frozenset(subset)
+    if len(subset) < 2:
+        return True
+    memo = problem.cell_memo
+    key = ("buildable", c, subset)
+    if key not in memo:
+        memo[key] = any(_stands(problem, op, c) and buildable(problem, op.moving, c)
+                        and buildable(problem, op.fixed, c)
+                        for op in _search_order(problem, _rules(problem, subset, c), c))
+    return memo[key]
+
+
+def _stands(problem, op: Operation, c: CellConstraints) -> bool:
+    return c.gravity is None or problem.stability(op.fixed).stable
+
+
+def _search_order(problem, ops, c: CellConstraints):
+    """Under gravity, the highest moving part first (taking the top off a stable pile seldom
+    leaves it tipping): the search's first path then usually succeeds, with one stability check
+    per step instead of one per operation."""
+    if c.gravity is None:
+        return ops
+    heights = part_heights(problem.assembly, c.gravity)
+    return sorted(ops, key=lambda op: -max(heights[p][1] for p in op.moving))
+
+
+def _obeying(problem, subset: frozenset, c: CellConstraints) -> tuple[Operation, ...]:
+    """The operations of ``subset`` that obey the rules of ``c``, memoised (module doc)."""
+    key = ("obeying", c, subset)
+    hit = problem.cell_memo.get(key)
+    if hit is None:
+        hit = tuple(op for op in _rules(problem, subset, c) if _stands(problem, op, c))
+        problem.cell_memo[key] = hit
+    return hit
+
+
+def _rules(problem, subset: frozenset, c: CellConstraints) -> tuple[Operation, ...]:
+    """The operations of ``subset`` that obey ``c`` but for their fixed side's stability."""
+    key = ("rules", c, subset)
+    hit = problem.cell_memo.get(key)
+    if hit is None:
+        hit = problem.cell_memo[key] = _apply_rules(problem, subset, c)
+    return hit
+
+
+def _apply_rules(problem, subset: frozenset, c: CellConstraints) -> tuple[Operation, ...]:
     if len(subset) < 2:
         return ()
     gravity = c.gravity is not None
@@ -65,13 +147,14 @@ def constrained_candidates(problem, subset: frozenset, c: CellConstraints
     prefer = [primitive(exact_direction((-Fraction(x.axis[0]), -Fraction(x.axis[1]))))
               for x in c.directions]
     gh = problem.geometry_hash
+    heights = part_heights(problem.assembly, c.gravity) if c.layers else None
     seen: dict[str, Operation] = {}
-    for op, part in problem.splits(subset):
+    for op, part in problem.splits(subset, c.one_part):
         if c.base is not None and c.base in subset and c.base not in op.fixed:
             continue
         if (c.linear or gravity) and len(op.moving) != 1:
             continue
-        if gravity and not problem.stability(op.fixed).stable:
+        if heights is not None and _below_a_placed_part(heights, op):
             continue
         if arcs:
             op = reaim(op, part, arcs, prefer)
@@ -79,6 +162,12 @@ def constrained_candidates(problem, subset: frozenset, c: CellConstraints
                 continue
         seen.setdefault(op.key(gh), op)
     return tuple(seen.values())
+
+
+def _below_a_placed_part(heights, op: Operation) -> bool:
+    """Does a moving part lie wholly below a part of the fixed side (``layers`` forbids it)?"""
+    top = max(heights[p][1] for p in op.moving)
+    return any(heights[f][0] >= top for f in op.fixed)
 
 
 def _minimal_interlocked(problem, subset) -> frozenset:
@@ -89,7 +178,7 @@ def _minimal_interlocked(problem, subset) -> frozenset:
         changed = False
         for pid in list(cur):
             rest = [p for p in cur if p != pid]
-            if len(rest) >= 2 and not problem.splits(rest):
+            if len(rest) >= 2 and not problem.splits(rest, False):
                 cur, changed = rest, True
                 break
     return frozenset(cur)
@@ -118,7 +207,20 @@ def _why(problem, subset: frozenset, c: CellConstraints, rule: str) -> str:
         return "no insertion direction within " + " or ".join(x.describe() for x in c.directions)
     if rule == "linear":
         return "no single part can go in last"
+    if rule == "layers":
+        return "every part that could go in last lies wholly below a part already in place"
     return f"{c.base} would have to move"
+
+
+def _deepest_block(problem, subset: frozenset, c: CellConstraints) -> frozenset:
+    """Follow the first operation of ``subset`` with a side that cannot be built down to a
+    subassembly that no operation obeying ``c`` splits at all: the one to blame."""
+    while True:
+        side = next((x for op in _obeying(problem, subset, c) for x in (op.moving, op.fixed)
+                     if not buildable(problem, x, c)), None)
+        if side is None:
+            return subset
+        subset = frozenset(side)
 
 
 def blocked_by(problem, subset) -> tuple[frozenset, str]:
@@ -126,13 +228,18 @@ def blocked_by(problem, subset) -> tuple[frozenset, str]:
     subset = frozenset(subset)
     name = problem.assembly.name
     c = problem.constraints
-    if not problem.splits(subset) or not c.active or problem.candidates(subset):
-        culprit = _minimal_interlocked(problem, subset) if not problem.splits(subset) else subset
+    if c.active and not problem.candidates(subset):
+        subset = _deepest_block(problem, subset, c)
+    interlocked = not problem.splits(subset, False)
+    if interlocked or not c.active or problem.candidates(subset):
+        culprit = _minimal_interlocked(problem, subset) if interlocked else subset
         return culprit, interlocked_message(name, culprit)
     rules = c.rules()
-    freeing = [r for r in rules if constrained_candidates(problem, subset, c.relaxed(r))]
-    if "gravity" in freeing and "base" in freeing:
-        freeing.remove("base")  # lifting the base lifts gravity too: gravity is the one to name
+    freeing = [r for r in rules if _obeying(problem, subset, c.relaxed(r))]
+    # lifting the base lifts gravity and layers, lifting gravity lifts layers: name the narrowest
+    for narrow, wider in (("layers", ("gravity", "base")), ("gravity", ("base",))):
+        if narrow in freeing:
+            freeing = [r for r in freeing if r not in wider]
     parts = "{" + ",".join(sorted(subset)) + "}"
     head = f"no sequence satisfies the cell's constraints: the subassembly {parts} cannot be built"
     if len(freeing) == 1:

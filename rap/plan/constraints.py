@@ -21,6 +21,11 @@ applies it (``rap.plan.cell``), so every planner obeys it. The rules, for an ope
   (``rap.sim.statics``, a linear program over contact forces). A subassembly of two or more parts
   without the base has nothing to stand on, so it cannot be built: every operation moves a single
   part into an assembly standing on the base.
+* ``layers`` (``--layers``, needs ``gravity``): build in layers along gravity: a part goes in only
+  after every part lying wholly below it (its highest point at most the other's lowest, heights
+  measured exactly along ``-gravity``): a wall course by course. Stability alone allows any order
+  in which each part goes in after what it rests on (a brick of the second course as soon as the
+  bricks under it are in); masonry and stacking cells often want the layers.
 
 Robustness scores keep the simulator and model without gravity: a step's score is the success
 rate of the insertion motion under actuation noise with the parts lying flat; it does not cover
@@ -28,8 +33,8 @@ tipping, sliding or the arm's reach (``SCORE_NOTE``, in the plan's ``stats`` wit
 
 ``CellConstraints.parse(...)`` reads the flags' text, ``from_json``/``to_json`` the service's
 ``"constraints"`` object (``{"base": "plate", "linear": true, "directions": ["0,-1:30"],
-"gravity": "0,-1", "friction": 0.5}``); both raise ``rap.errors.ParameterError`` naming the
-parameter (``base``, ``directions``, ``gravity``, ``friction``). ``check(assembly)`` checks that
+"gravity": "0,-1", "friction": 0.5, "layers": true}``); both raise ``rap.errors.ParameterError`` naming the
+parameter (``base``, ``directions``, ``gravity``, ``friction``, ``layers``). ``check(assembly)`` checks that
 the base part exists. Numbers are decimals or fractions of at most ``MAX_NUMBER_CHARS``
 characters, read exactly; at most ``MAX_CONES`` cones. No ray, no torch.
 """
@@ -152,6 +157,7 @@ class CellConstraints:
     directions: tuple[Cone, ...] = ()
     gravity: tuple[Fraction, Fraction] | None = None
     friction: float = 0.5
+    layers: bool = False
 
     def __post_init__(self):
         if self.gravity is not None and self.base is None:
@@ -162,6 +168,14 @@ class CellConstraints:
         f = self.friction
         if isinstance(f, bool) or not isinstance(f, (int, float)) or not math.isfinite(f) or f < 0:
             raise ParameterError("friction", f, "choose a friction coefficient >= 0")
+        if self.layers and self.gravity is None:
+            raise ParameterError("layers", True, "needs --gravity DX,DY (layers are stacked "
+                                 "against gravity)", quote=False)
+
+    @property
+    def one_part(self) -> bool:
+        """Every step moves one part (``linear``, or ``gravity``: nothing else can stand)."""
+        return self.linear or self.gravity is not None
 
     @property
     def active(self) -> bool:
@@ -171,9 +185,9 @@ class CellConstraints:
     @classmethod
     def parse(cls, base: str | None = None, linear: bool = False,
               directions: Iterable[str] | None = None, gravity: str | None = None,
-              friction: float | None = None) -> "CellConstraints":
+              friction: float | None = None, layers: bool = False) -> "CellConstraints":
         """The constraints of the flags' text (None: not given); ``ParameterError`` naming the
-        parameter (``base``, ``directions``, ``gravity``, ``friction``)."""
+        parameter (``base``, ``directions``, ``gravity``, ``friction``, ``layers``)."""
         if base is not None and (not isinstance(base, str) or not base):
             raise ParameterError("base", base, "name a part of the assembly")
         directions = list(directions or ())
@@ -187,7 +201,8 @@ class CellConstraints:
         if friction is not None and (isinstance(friction, bool)
                                      or not isinstance(friction, (int, float))):
             raise ParameterError("friction", friction, "choose a friction coefficient >= 0")
-        return cls(base, bool(linear), cones, g, 0.5 if friction is None else float(friction))
+        return cls(base, bool(linear), cones, g, 0.5 if friction is None else float(friction),
+                   bool(layers))
 
     def check(self, assembly) -> "CellConstraints":
         """``self`` when its base is a part of ``assembly``; else ``ParameterError`` (``base``)."""
@@ -198,11 +213,14 @@ class CellConstraints:
         return self
 
     def relaxed(self, rule: str) -> "CellConstraints":
-        """Without one rule (``base`` also drops ``gravity``, which needs it)."""
+        """Without one rule (``base`` also drops ``gravity``, and ``gravity`` ``layers``, which
+        need them)."""
         if rule == "base":
-            return replace(self, base=None, gravity=None)
+            return replace(self, base=None, gravity=None, layers=False)
         if rule == "gravity":
-            return replace(self, gravity=None)
+            return replace(self, gravity=None, layers=False)
+        if rule == "layers":
+            return replace(self, layers=False)
         if rule == "directions":
             return replace(self, directions=())
         if rule == "linear":
@@ -211,7 +229,8 @@ class CellConstraints:
 
     def rules(self) -> tuple[str, ...]:
         """The active rules, in the order a blocker is looked for."""
-        return tuple(r for r, on in (("gravity", self.gravity is not None),
+        return tuple(r for r, on in (("layers", self.layers),
+                                     ("gravity", self.gravity is not None),
                                      ("directions", bool(self.directions)),
                                      ("linear", self.linear), ("base", self.base is not None))
                      if on)
@@ -224,6 +243,8 @@ class CellConstraints:
             return " ".join(f"--directions {c.text()}" for c in self.directions)
         if rule == "linear":
             return "--linear"
+        if rule == "layers":
+            return "--layers"
         return f"--base {self.base}"
 
     def gravity_unit(self) -> tuple[float, float]:
@@ -246,6 +267,8 @@ class CellConstraints:
         if self.gravity is not None:
             out.append(f"stable under gravity ({vector_text(self.gravity)}), friction "
                        f"{self.friction:g}")
+        if self.layers:
+            out.append("in layers against gravity")
         return "; ".join(out) if out else "no cell constraints"
 
     def to_json(self) -> dict:
@@ -253,7 +276,7 @@ class CellConstraints:
         return {"base": self.base, "linear": self.linear,
                 "directions": [c.text() for c in self.directions],
                 "gravity": None if self.gravity is None else vector_text(self.gravity),
-                "friction": self.friction}
+                "friction": self.friction, "layers": self.layers}
 
     @classmethod
     def from_json(cls, doc) -> "CellConstraints":
@@ -261,15 +284,16 @@ class CellConstraints:
         ``ParameterError`` naming the key."""
         if not isinstance(doc, dict):
             raise ParameterError("constraints", doc, "must be an object with base, linear, "
-                                 "directions, gravity, friction")
-        known = ("base", "linear", "directions", "gravity", "friction")
+                                 "directions, gravity, friction, layers")
+        known = ("base", "linear", "directions", "gravity", "friction", "layers")
         for key in doc:
             if key not in known:
                 raise ParameterError("constraints", key, f"unknown key (expected "
                                      f"{', '.join(known)})")
-        linear = doc.get("linear", False)
-        if not isinstance(linear, bool):
-            raise ParameterError("linear", linear, "must be true or false")
+        linear, layers = doc.get("linear", False), doc.get("layers", False)
+        for key, value in (("linear", linear), ("layers", layers)):
+            if not isinstance(value, bool):
+                raise ParameterError(key, value, "must be true or false")
         directions = doc.get("directions") or []
         if not isinstance(directions, list):
             raise ParameterError("directions", directions, "must be a list of \"DX,DY:DEG\"")
@@ -281,4 +305,5 @@ class CellConstraints:
                 raise ParameterError("friction", friction, "choose a number >= 0") from None
         if friction is not None and doc.get("gravity") is None and friction == 0.5:
             friction = None  # to_json writes the default friction without gravity
-        return cls.parse(doc.get("base"), linear, directions, doc.get("gravity"), friction)
+        return cls.parse(doc.get("base"), linear, directions, doc.get("gravity"), friction,
+                         layers)

@@ -7,7 +7,10 @@ is valid* (``rap.plan.validate``), in the manner of OMPL's ``ProblemDefinition``
 * ``space``: which operations a subassembly offers. ``"online"`` is RAP's choice (one partition per
   NDBG cell, adjacent cells admitting the same partition merged, the middle direction of the merged
   range: ``rap.geometry.partitions.online_partitions``), also used by the paper for the optimal and
-  random baselines; ``"all"`` every closed moving set of every cell (``all_partitions``);
+  random baselines; ``"all"`` every closed moving set of every cell (``all_partitions``). A
+  cell that moves one part per step (``constraints.one_part``: ``--linear`` or ``--gravity``)
+  offers every single-part move instead (``single_part_partitions``), in either space: the online
+  choice of a cell may be a set of parts, and filtering it would lose single parts that can go;
 * ``params`` and ``root_seed``: the simulator parameters and the run's root seed. An operation's
   simulator seed is ``derive_seed(root_seed, op.key(geometry_hash, params.fingerprint()))`` and its
   cache/dataset key ``rap.enumerate.label_key`` of the same, exactly as the labelling farm does, so a
@@ -50,13 +53,16 @@ PartitionFn = Callable[[frozenset], Iterable[Operation]]
 StabilityFn = Callable[..., object]
 
 
-def _ndbg_partition_fn(assembly: Assembly, space: str) -> PartitionFn:
-    """(subset) -> [(Operation, Partition)] from the NDBG."""
+def _ndbg_partition_fn(assembly: Assembly, space: str, one_part: bool = False) -> PartitionFn:
+    """(subset) -> [(Operation, Partition)] from the NDBG; ``one_part``: every single-part move
+    (``single_part_partitions``) whatever the space, for a cell that inserts one part a step."""
     from rap.geometry import partitions as P
     from rap.geometry.ndbg import build_ndbg
 
     ndbg = build_ndbg(assembly)
     choose = P.online_partitions if space == "online" else P.all_partitions
+    if one_part:
+        choose = P.single_part_partitions
 
     def fn(subset: frozenset) -> list[tuple[Operation, object]]:
         return [(p.operation(), p) for p in choose(ndbg, frozenset(subset))]
@@ -84,7 +90,8 @@ class PlanningProblem:
     _cache: dict = field(default_factory=dict, init=False, repr=False)
     _splits: dict = field(default_factory=dict, init=False, repr=False)
     _stable: dict = field(default_factory=dict, init=False, repr=False)
-    _ndbg_fn: Callable | None = field(default=None, init=False, repr=False)
+    _ndbg_fns: dict = field(default_factory=dict, init=False, repr=False)  # one_part -> fn
+    cell_memo: dict = field(default_factory=dict, init=False, repr=False)  # rap.plan.cell's
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
     def __post_init__(self):
@@ -114,18 +121,22 @@ class PlanningProblem:
         return label_seed(op, self.geometry_hash, self.params_fingerprint, self.root_seed)
 
     # -- the operation space --------------------------------------------------------------------
-    def splits(self, subset: Iterable[str]) -> tuple[tuple[Operation, object], ...]:
+    def splits(self, subset: Iterable[str], one_part: bool | None = None
+               ) -> tuple[tuple[Operation, object], ...]:
         """Every operation assembling ``subset`` without the constraints, with its ``Partition``
         (None where ``partition_fn`` gave it), deduplicated by content key in the partition
-        function's order (empty when interlocked). Memoised; thread-safe."""
+        function's order (empty when interlocked). ``one_part``: the single-part moves (module
+        doc; None: when the constraints move one part per step). Memoised; thread-safe."""
         subset = frozenset(subset)
+        one_part = self.constraints.one_part if one_part is None else bool(one_part)
         with self._lock:
-            hit = self._splits.get(subset)
+            hit = self._splits.get((subset, one_part))
             if hit is not None:
                 return hit
-            if self.partition_fn is None and self._ndbg_fn is None:
-                self._ndbg_fn = _ndbg_partition_fn(self.assembly, self.space)
-            user, ndbg = self.partition_fn, self._ndbg_fn
+            if self.partition_fn is None and one_part not in self._ndbg_fns:
+                self._ndbg_fns[one_part] = _ndbg_partition_fn(self.assembly, self.space,
+                                                              one_part)
+            user, ndbg = self.partition_fn, self._ndbg_fns.get(one_part)
         seen: dict[str, tuple[Operation, object]] = {}
         if len(subset) >= 2:
             gh = self.geometry_hash
@@ -137,7 +148,7 @@ class PlanningProblem:
                 seen.setdefault(op.key(gh), (op, part))
         out = tuple(seen.values())
         with self._lock:
-            self._splits[subset] = out
+            self._splits[(subset, one_part)] = out
         return out
 
     def candidates(self, subset: Iterable[str]) -> tuple[Operation, ...]:

@@ -90,6 +90,7 @@ def check(result, asm, base=None, linear=False):
     (dict(base="p", gravity="0,-1", friction=-0.1), "friction"),
     (dict(friction=0.3), "friction"),
     (dict(base=""), "base"),
+    (dict(base="p", layers=True), "layers"),
 ])
 def test_bad_constraints_name_their_parameter(flags, parameter):
     with pytest.raises(ParameterError) as info:
@@ -98,11 +99,11 @@ def test_bad_constraints_name_their_parameter(flags, parameter):
 
 
 def test_text_round_trips_and_words():
-    c = CellConstraints.parse("plate", True, ["0,-1:30", "0.5,-1/3:12.5"], "0,-9.81", 0.4)
+    c = CellConstraints.parse("plate", True, ["0,-1:30", "0.5,-1/3:12.5"], "0,-9.81", 0.4, True)
     assert c.active and c.directions[1].axis == (Fraction(1, 2), Fraction(-1, 3))
     doc = json.loads(json.dumps(c.to_json()))
     assert doc == {"base": "plate", "linear": True, "directions": ["0,-1:30", "0.5,-1/3:12.5"],
-                   "gravity": "0,-9.81", "friction": 0.4}
+                   "gravity": "0,-9.81", "friction": 0.4, "layers": True}
     assert CellConstraints.from_json(doc) == c
     assert "within 30° of (0,-1)" in c.describe() and "plate fixed" in c.describe()
     assert not CellConstraints().active and CellConstraints.from_json({}) == CellConstraints()
@@ -257,6 +258,47 @@ def test_the_wall_stands_at_every_step():
         ins = s.operation.exact_direction
         assert ins[1] <= 0  # from above or the side, never from below
     _settles(asm, result, "plate")
+
+
+def _course(part: str) -> int:
+    return int(part.split("_")[0][1:])  # c2_b3 -> 2
+
+
+@pytest.mark.parametrize("method", ("search", "sim"))
+def test_layers_build_the_wall_course_by_course(method):
+    pytest.importorskip("scipy")
+    asm = cell("brick-wall-22")
+    result, _ = plan(asm, method, base="plate", gravity="0,-1", layers=True)
+    check(result, asm, base="plate", linear=True)
+    courses = [_course(s.moving[0]) for s in result.steps]
+    assert courses == sorted(courses) and courses[0] == 0 and courses[-1] == 3
+    assert "in layers" in CellConstraints.from_json(result.stats["constraints"]).describe()
+    _settles(asm, result, "plate")
+
+
+def test_layers_block_a_part_that_must_go_in_under_another():
+    """A deck on a pillar and a block hung under the deck, which slides in from the side. With a
+    stand-in stability (the block holds only once the deck is in) the deck goes first; layers
+    would need the block, lying wholly below the deck, in before it: the line names --layers."""
+    bridge = memory({"name": "bridge", "parts": [
+        {"id": "ground", "polygon": [[0, 0], [40, 0], [40, 10], [0, 10]]},
+        {"id": "left", "polygon": [[0, 10], [10, 10], [10, 30], [0, 30]]},
+        {"id": "deck", "polygon": [[0, 30], [40, 30], [40, 40], [0, 40]]},
+        {"id": "hang", "polygon": [[15, 20], [25, 20], [25, 30], [15, 30]]},
+    ]})
+
+    def held(assembly, ids, base, gravity, friction):  # the hanging block is glued to the deck
+        ok = "hang" not in ids or "deck" in ids
+        return SimpleNamespace(stable=ok, reason="" if ok else "part hang would fall")
+
+    result, _ = plan(bridge, "sim", stability_fn=held, base="ground", gravity="0,-1")
+    assert result.found
+    order = [s.moving[0] for s in result.steps]
+    assert order.index("deck") < order.index("hang")
+    result, problem = plan(bridge, "sim", stability_fn=held, base="ground", gravity="0,-1",
+                           layers=True)
+    assert result.status is PlanStatus.INFEASIBLE
+    assert "--layers" in result.message and "wholly below" in result.message, result.message
 
 
 def _settles(asm, result, base):
