@@ -187,7 +187,7 @@ def api(out: Path) -> None:
         if method is not None:
             body["method"] = method
         try:
-            _, m, seed, opts = parse_plan_request(json.dumps(body).encode())
+            _, m, seed, opts, _cell = parse_plan_request(json.dumps(body).encode())
         except BadRequest as exc:
             answer = {"status": exc.status, "message": exc.message}
         else:

@@ -8,7 +8,8 @@ import pytest
 from rap.geometry.exact import in_open_arc
 from rap.geometry.moving_sets import TooManyPartitions
 from rap.geometry.ndbg import build_ndbg, is_feasible_operation
-from rap.geometry.partitions import _online_choice, all_partitions, interlocked, online_partitions
+from rap.geometry.partitions import (_online_choice, all_partitions, interlocked, online_partitions,
+                                     single_part_partitions)
 
 from .fixtures import DOVETAIL, FAR_APART, FRAMED, FRAMED_LOOSE, GRID2, GRID3, L_AND_SQUARE, make, square
 
@@ -163,6 +164,26 @@ def test_all_partitions_match_brute_force(seed):
                     want.add(frozenset(nd.ids[i] for i in mv))
         got = [p.moving for p in ps if p.contains(c.direction)]
         assert len(got) == len(set(got)) and set(got) == want
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_single_part_partitions_are_all_partitions_moving_one_part(seed):
+    """Per cell, the parts that can leave alone (brute force over the cell's blocking pairs),
+    for the whole and for a subset; every range holds its cells and nothing else."""
+    from rap.geometry.generate import random_tiling
+
+    asm = random_tiling(6, np.random.default_rng(seed))
+    nd = build_ndbg(asm)
+    for subset in (nd.ids, nd.ids[:4]):
+        ps = single_part_partitions(nd, subset)
+        assert all(len(p.moving) == 1 and p.moving | p.fixed == frozenset(subset) for p in ps)
+        idx = [nd.index(x) for x in subset]
+        for c in nd.cells:
+            want = {nd.ids[i] for i in idx
+                    if not any((i, j) in c.blocks for j in idx if j != i)}
+            got = [next(iter(p.moving)) for p in ps if p.contains(c.direction)]
+            assert len(got) == len(set(got)) and set(got) == want
+    assert single_part_partitions(nd, nd.ids[:1]) == []
 
 
 def test_cell_partition_counts():
