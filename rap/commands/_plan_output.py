@@ -72,8 +72,9 @@ def bound_lines(result) -> list[str]:
     if not b:
         return []
     v, gap = b["robustness_upper"], b["gap"]
-    out = [f"optimum <= {v:.4f} at {100 * b['confidence']:g}% confidence; this plan is within "
-           f"{100 * gap:.1f}% of it" + (f" ({b['note']})" if b.get("note") else "")]
+    out = [f"optimum <= {v:.4f} at {100 * b['confidence']:g}% confidence: this plan has at least "
+           f"{100 * (1 - gap):.1f}% of the optimum's robustness (gap {100 * gap:.1f}%)"
+           + (f" ({b['note']})" if b.get("note") else "")]
     n = st.get("stopped_after", 0)
     if st.get("stopped") == "gap":
         out.append(f"stopped at --gap {st['gap']:g} after {n} simulations")
@@ -122,6 +123,11 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
         line += (f"; mean over {st['samples']} random sequences = {st['mean_robustness']:.4f} "
                  f"(shown: the sample closest to the mean)")
     console.print(line)
+    if st.get("constraints"):
+        from rap.plan.constraints import CellConstraints
+
+        console.print(f"cell: {CellConstraints.from_json(st['constraints']).describe()}; "
+                      f"{st.get('score_note', '')}")
     for text in bound_lines(result):
         console.print(text)
     parts = [f"planning {result.seconds:.2f} s", f"evaluation {result.eval_seconds:.2f} s"]

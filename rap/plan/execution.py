@@ -23,7 +23,9 @@ read: the units, the trials, each step's robot move, its score's confidence inte
 (``rap.plan.score_intervals``) and its reason (``rap.plan.reasons``), and R's interval.
 ``plan_rows(result)`` are the rows of ``rap-farm plan --csv`` (``CSV_COLUMNS``).
 
-Floats (motion, not predicates); the centroid is computed exactly and converted. Cost of
+Floats (motion, not predicates); the centroid is computed exactly and converted. The CSV's
+numbers are rounded to 12 decimals (``tidy``): the motion's floats carry noise such as
+``cos(pi/2) = 6e-17`` that a controller should read as 0. Cost of
 ``annotate_plan``: one NDBG of the assembly (for the reasons) and O(vertices) per step.
 """
 
@@ -38,7 +40,8 @@ from rap.operation import Operation
 from rap.plan.result import PlanResult, PlanStatus, RobotMove
 from rap.sim.placement import placement
 
-__all__ = ["RobotMove", "robot_move", "centroid", "annotate_plan", "plan_rows", "CSV_COLUMNS"]
+__all__ = ["RobotMove", "robot_move", "centroid", "annotate_plan", "plan_rows", "tidy",
+           "CSV_COLUMNS"]
 
 #: the columns of ``rap-farm plan --csv``, in order (README, "Plan files")
 CSV_COLUMNS = ("step", "moving", "fixed", "insertion_x", "insertion_y", "start_x", "start_y",
@@ -110,6 +113,11 @@ def annotate_plan(result: PlanResult, problem, approach_distance: float | None =
                    confidence_level=None if interval is None else LEVEL)
 
 
+def tidy(x: float) -> float:
+    """``x`` rounded to 12 decimals, without a negative zero (a controller's reading)."""
+    return round(float(x), 12) + 0.0
+
+
 def plan_rows(result: PlanResult) -> list[dict]:
     """One dict per step of a found plan, keyed by ``CSV_COLUMNS`` (part ids joined by commas,
     as the table shows them: ids never hold one; unknown values as empty strings)."""
@@ -117,17 +125,17 @@ def plan_rows(result: PlanResult) -> list[dict]:
     for k, s in enumerate(result.steps, 1):
         r, lo_hi = s.robot, s.score_interval
         row = {"step": k, "moving": ",".join(s.moving), "fixed": ",".join(s.fixed),
-               "insertion_x": s.insertion[0] + 0.0, "insertion_y": s.insertion[1] + 0.0,
+               "insertion_x": tidy(s.insertion[0]), "insertion_y": tidy(s.insertion[1]),
                "units": result.units, "score": "" if s.score is None else s.score,
                "score_low": "" if lo_hi is None else lo_hi[0],
                "score_high": "" if lo_hi is None else lo_hi[1],
                "source": s.source, "reason": s.reason or ""}
         for name in ("start", "approach", "goal"):
             xy = None if r is None else getattr(r, name)
-            row[f"{name}_x"] = "" if xy is None else xy[0]
-            row[f"{name}_y"] = "" if xy is None else xy[1]
-        row["travel"] = "" if r is None else r.travel
-        row["centroid_x"] = "" if r is None else r.centroid_goal[0]
-        row["centroid_y"] = "" if r is None else r.centroid_goal[1]
+            row[f"{name}_x"] = "" if xy is None else tidy(xy[0])
+            row[f"{name}_y"] = "" if xy is None else tidy(xy[1])
+        row["travel"] = "" if r is None else tidy(r.travel)
+        row["centroid_x"] = "" if r is None else tidy(r.centroid_goal[0])
+        row["centroid_y"] = "" if r is None else tidy(r.centroid_goal[1])
         rows.append({c: row[c] for c in CSV_COLUMNS})
     return rows

@@ -208,8 +208,9 @@ class PlanResult:
         not in it). Raises ``ValueError`` for a document of another shape."""
         try:
             feasible = doc["feasible"]
+            cell = {k: doc[k] for k in ("constraints", "score_note") if doc.get(k) is not None}
             common = dict(method=str(doc["method"]), assembly=str(doc["assembly"]),
-                          eval_seconds=float(eval_seconds), stats=dict(stats or {}))
+                          eval_seconds=float(eval_seconds), stats={**cell, **(stats or {})})
             if feasible is True:
                 steps = tuple(PlanStep.from_json(s) for s in doc["steps"])
                 r, r_lo_hi = doc["robustness"], doc.get("robustness_interval")
@@ -223,12 +224,18 @@ class PlanResult:
                            **common)
             if feasible is False:
                 parts = tuple(map(str, doc["interlocked"]))
-                return cls(PlanStatus.INFEASIBLE, interlocked=parts,
-                           message=interlocked_message(common["assembly"], parts), **common)
+                message = doc.get("message") or interlocked_message(common["assembly"], parts)
+                return cls(PlanStatus.INFEASIBLE, interlocked=parts, message=str(message),
+                           **common)
             return cls(PlanStatus(doc["status"]), seconds=float(doc["seconds"]),
                        message=str(doc["message"]), **common)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise ValueError(f"not a plan document ({type(exc).__name__}: {exc})") from None
+
+    def _cell_json(self) -> dict:
+        """The robot cell's constraints and what the scores cover, when the plan had any
+        (``rap.plan.cell.constraint_stats``: ``constraints``, ``score_note`` in ``stats``)."""
+        return {k: self.stats[k] for k in ("constraints", "score_note") if k in self.stats}
 
     def to_json(self) -> dict:
         """The ``--out`` document: exactly the keys documented for ``rap-farm plan``."""
@@ -239,9 +246,11 @@ class PlanResult:
                     else list(self.robustness_interval),
                     "confidence_level": self.confidence_level, "trials": self.trials,
                     "steps": [s.to_json() for s in self.steps], "seconds": self.seconds,
-                    **({} if self.bound is None else {"bound": dict(self.bound)})}
+                    **({} if self.bound is None else {"bound": dict(self.bound)}),
+                    **self._cell_json()}
         if self.status is PlanStatus.INFEASIBLE:
             return {"assembly": self.assembly, "method": self.method, "feasible": False,
-                    "interlocked": list(self.interlocked or ())}
+                    "interlocked": list(self.interlocked or ()), "message": self.message,
+                    **self._cell_json()}
         return {"assembly": self.assembly, "method": self.method, "feasible": None,
                 "status": self.status.value, "message": self.message, "seconds": self.seconds}

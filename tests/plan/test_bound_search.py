@@ -130,7 +130,8 @@ def test_gap_stops_early_and_says_so():
     assert early.bound["gap"] <= 0.1 + 1e-12  # the bound holds, so its final gap is smaller
     lines = bound_lines(early)
     assert lines[0].startswith(f"optimum <= {early.bound['robustness_upper']:.4f} at 95% "
-                               f"confidence; this plan is within")
+                               f"confidence: this plan has at least "
+                               f"{100 * (1 - early.bound['gap']):.1f}% of the optimum's")
     assert lines[1] == f"stopped at --gap 0.1 after {n} simulations"
     assert "stopped" not in " ".join(bound_lines(SearchPlanner(bounds=covering()).solve(
         problem, scorer(low(1)))))

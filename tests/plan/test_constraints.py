@@ -252,9 +252,9 @@ def test_the_arch_needs_its_centring():
 def test_the_wall_stands_at_every_step():
     pytest.importorskip("scipy")
     asm = cell("brick-wall-22")
-    result, _ = plan(asm, "sim", base="plate", gravity="0,-1", directions=["0,-1:90"])
+    result, _ = plan(asm, "sim", base="plate", gravity="0,-1")
     check(result, asm, base="plate", linear=True)
-    for s in result.steps:
+    for s in result.steps:  # gravity alone: every part rests on something below it
         ins = s.operation.exact_direction
         assert ins[1] <= 0  # from above or the side, never from below
     _settles(asm, result, "plate")
@@ -339,16 +339,23 @@ def test_the_command_refuses_bad_constraints_in_one_line(capsys, args, needle):
 def test_the_command_plans_the_side_peg_from_the_side_only(capsys, tmp_path):
     src = CELLS / "side-peg.json"
     flags = ("--method", "sim", "--trials", "8", "--no-cache", "--workers", "1", "--base", "base")
-    code, _, err = _cli(capsys, src, *flags, "--directions", "0,-1:30")
-    assert code == 1 and len(err.strip().splitlines()) == 1
-    assert ("the subassembly {base,peg} cannot be built: every way to split it breaks "
-            "--directions 0,-1:30") in err
     out = tmp_path / "plan.json"
-    code, _, err = _cli(capsys, src, *flags, "--directions", "-1,0:30", "--linear", "--out", out)
+    code, _, err = _cli(capsys, src, *flags, "--directions", "0,-1:30", "--out", out)
+    assert code == 1 and len([x for x in err.strip().splitlines() if "error" in x]) == 1
+    line = ("the subassembly {base,peg} cannot be built: every way to split it breaks "
+            "--directions 0,-1:30")
+    assert line in err
+    doc = json.loads(out.read_text())  # the document names the block and the constraints too
+    assert doc["feasible"] is False and line in doc["message"]
+    assert doc["constraints"]["directions"] == ["0,-1:30"] and doc["score_note"] == SCORE_NOTE
+    code, stdout, err = _cli(capsys, src, *flags, "--directions", "-1,0:30", "--linear",
+                             "--out", out)
     assert code == 0, err
     doc = json.loads(out.read_text())
     (step,) = doc["steps"]
     assert step["moving"] == ["peg"] and step["insertion"] == pytest.approx([-1.0, 0.0])
+    assert CellConstraints.from_json(doc["constraints"]).linear and doc["score_note"] == SCORE_NOTE
+    assert "cell: base fixed in the fixture; one part per step" in " ".join(stdout.split())
 
 
 def test_the_service_reads_and_checks_constraints():

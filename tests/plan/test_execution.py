@@ -141,3 +141,10 @@ def test_an_imported_drawing_states_its_unit_and_the_assembly_file_keeps_it(tmp_
     path = write_assembly_json(got.assembly, tmp_path / "square.json")
     assert json.loads(path.read_text())["units"] == units
     assert read_assembly_json(path).units == units
+
+
+def test_tidy_reads_float_noise_as_zero():
+    from rap.plan.execution import tidy
+
+    assert tidy(6.123233995736766e-17) == 0.0 and str(tidy(-1e-17)) == "0.0"
+    assert tidy(-0.7071067811865475) == -0.707106781187 and tidy(12.000000000000004) == 12.0

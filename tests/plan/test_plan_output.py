@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from rap.files import write_text_atomic
-from rap.plan.execution import CSV_COLUMNS
+from rap.plan.execution import CSV_COLUMNS, tidy
 
 from tests.plan.cases import FRAMED_HOLE, ROOT, ROW3, write
 
@@ -65,11 +65,14 @@ def test_the_csv_has_one_row_a_step_and_agrees_with_the_json(planned):
     assert list(table["step"]) == list(range(1, len(doc["steps"]) + 1))
     for (_, row), s in zip(table.iterrows(), doc["steps"]):
         assert row["moving"].split(",") == s["moving"] and row["fixed"].split(",") == s["fixed"]
-        assert (row["insertion_x"], row["insertion_y"]) == tuple(s["insertion"])
-        assert (row["start_x"], row["start_y"]) == tuple(s["robot"]["start"])
-        assert (row["approach_x"], row["approach_y"]) == tuple(s["robot"]["approach"])
-        assert (row["goal_x"], row["goal_y"], row["travel"]) == (0.0, 0.0, s["robot"]["travel"])
-        assert (row["centroid_x"], row["centroid_y"]) == tuple(s["robot"]["centroid"]["goal"])
+        # the CSV's numbers are the JSON's rounded to 12 decimals (execution.tidy)
+        assert (row["insertion_x"], row["insertion_y"]) == tuple(map(tidy, s["insertion"]))
+        assert (row["start_x"], row["start_y"]) == tuple(map(tidy, s["robot"]["start"]))
+        assert (row["approach_x"], row["approach_y"]) == tuple(map(tidy, s["robot"]["approach"]))
+        assert (row["goal_x"], row["goal_y"], row["travel"]) == (0.0, 0.0,
+                                                                 tidy(s["robot"]["travel"]))
+        assert ((row["centroid_x"], row["centroid_y"])
+                == tuple(map(tidy, s["robot"]["centroid"]["goal"])))
         assert (row["score"], row["score_low"], row["score_high"]) == (s["score"],
                                                                       *s["score_interval"])
         assert row["units"] == "mm" and row["source"] == s["source"]

@@ -14,7 +14,7 @@ from rap.plan.methods import (METHODS, PAPER_RAP, RAP_FALLBACK_OPTIMISM,
                               RAP_HIGH_PROBABILITY, make_planner)
 from rap.plan.planners import OptimalPlanner, RapPlanner, SimPlanner
 from rap.plan.problem import PlanningProblem
-from rap.plan.result import PlanStatus, is_assembly_order
+from rap.plan.result import interlocked_message, PlanStatus, is_assembly_order
 from rap.plan.scorers import Budget, Scorer
 from rap.plan.validate import check_plan
 from rap.sim.params import SimParams
@@ -127,7 +127,8 @@ def test_interlocked_assembly_is_infeasible_and_names_the_parts():
         assert r.status is PlanStatus.INFEASIBLE
         assert set(r.interlocked) == {"frame", "plug"}
         assert r.to_json() == {"assembly": "framed-hole", "method": m, "feasible": False,
-                               "interlocked": ["frame", "plug"]}
+                               "interlocked": ["frame", "plug"], "message": r.message}
+        assert r.message == interlocked_message("framed-hole", ["frame", "plug"])
 
 
 def test_real_simulator_scores_are_cached_and_reused(tmp_path):
