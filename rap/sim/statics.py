@@ -45,12 +45,16 @@ are not stable, ``Support.reason`` names them in one line: parts that touch noth
 are not connected to the base through contacts, else the parts that need the most help in an
 elastic version of the program (slack forces and torques, least total slack).
 
-Cost: the assembly's contact table and per-part data are built once per geometry hash (and
-margin); a call then builds a dense (3 x parts) by (2 x contact points) matrix and solves one LP
-with HiGHS (a second, elastic one only to name the parts when infeasible): a few milliseconds for
-a subset of the 22-brick wall, most of it scipy's ``linprog`` wrapper (``benchmarks/statics.py``
-prints the figures). Results are memoised per ``(geometry hash, frozenset(ids), base, gravity,
-friction, margin)`` in a bounded LRU cache (``CACHE_SIZE`` entries); it is thread-safe.
+Cost: per geometry hash (and margin) the contact table and per-part arrays are built once, and
+per gravity and friction the single-part mechanism table (``rap.sim.mechanisms``) and the
+program's coefficients, O(P K^2) for P parts of at most K contact points each. A call then costs
+a connectivity walk over bit masks, a few numpy operations that slice those tables by the subset's
+mask, and, only when no part moves alone, one LP solved by HiGHS (``highspy``, no scipy wrapper)
+on a sparse (3 x parts) by (2 x contact points) matrix, plus a second, elastic one to name the
+parts when it is infeasible. For a subset of the 22-brick wall: some tens of microseconds when a
+part moves alone, a few milliseconds with the program (``benchmarks/statics.py`` prints the
+figures). Results are memoised per ``(geometry hash, frozenset(ids), base, gravity, friction,
+margin)`` in a bounded LRU cache (``CACHE_SIZE`` entries); it is thread-safe.
 """
 
 from __future__ import annotations
@@ -62,11 +66,11 @@ from dataclasses import dataclass
 from typing import Iterable
 
 import numpy as np
-from scipy.optimize import linprog
 
 from rap.assembly import Assembly
-from rap.geometry.contacts import contact_table, contacts_within
-from rap.sim.mechanisms import part_mechanisms
+from rap.geometry.contacts import contact_table
+from rap.sim.lp import solve_lp
+from rap.sim.mechanisms import MechanismTable, first_mechanism, mechanism_table
 
 __all__ = ["DEFAULT_FRICTION", "DEFAULT_MARGIN", "Support", "check_static", "CACHE_SIZE"]
 
@@ -87,16 +91,21 @@ class Support:
 
 @dataclass(frozen=True)
 class _Geometry:
-    """Per-assembly data in normalised units (see the module doc)."""
+    """Per-assembly data in normalised units (see the module doc); parts by row (the assembly's
+    order)."""
 
-    mass: dict  # part id -> mass (area / mean area)
-    centroid: dict  # part id -> (x, y) normalised
-    points: dict  # (a, b) -> float array [k, 4]: x, y, unit normal (a into b), normalised
+    ids: tuple[str, ...]  # row -> part id
+    row: dict  # part id -> row
+    mass: np.ndarray  # [N] area / mean area
+    centroid: np.ndarray  # [N, 2] normalised
     size: float  # the assembly's larger extent: one normalised length unit
     center: tuple[float, float]  # the origin of the normalised coordinates
-    row: dict  # part id -> row of the arrays below
-    own_points: np.ndarray  # [parts, K, 4]: each part's contact points, normals into it, padded
-    partner: np.ndarray  # [parts, K]: the row of the part across each point (-1: padding)
+    neighbours: tuple[int, ...]  # row -> bit mask of the rows it touches
+    points: np.ndarray  # [M, 4] every contact point: x, y, unit normal (a into b); pairs sorted
+    point_a: np.ndarray  # [M] row of the pair's first part
+    point_b: np.ndarray  # [M] row of the pair's second part
+    own_points: np.ndarray  # [N, K, 4]: each part's contact points, normals into it, padded
+    partner: np.ndarray  # [N, K]: the row of the part across each point (N: padding)
 
 
 def _centroid_area(part) -> tuple[float, float, float]:
@@ -113,63 +122,107 @@ def _centroid_area(part) -> tuple[float, float, float]:
     return float(a2 / 2), float(cx6 / (3 * a2)), float(cy6 / (3 * a2))
 
 
+def _contact_rows(contacts, margin, cx, cy, size) -> np.ndarray:
+    rows = []
+    for c in contacts:
+        nx, ny = float(c.normal[0]), float(c.normal[1])
+        norm = math.hypot(nx, ny)
+        (px, py), (qx, qy) = ((float(v[0]), float(v[1])) for v in (c.p, c.q))
+        ends = [(px, py)] if c.p == c.q else [
+            (px + margin * (qx - px), py + margin * (qy - py)),
+            (qx - margin * (qx - px), qy - margin * (qy - py))]
+        for x, y in ends:
+            rows.append(((x - cx) / size, (y - cy) / size, nx / norm, ny / norm))
+    return np.array(rows, dtype=float).reshape(-1, 4)
+
+
 def _build(assembly: Assembly, margin: float) -> _Geometry:
     x0, y0, x1, y1 = assembly.bounds()
     size = max(x1 - x0, y1 - y0)
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-    data = {p.id: _centroid_area(p) for p in assembly.parts}
-    mean_area = sum(a for a, _, _ in data.values()) / len(data)
-    mass = {pid: a / mean_area for pid, (a, _, _) in data.items()}
-    centroid = {pid: ((x - cx) / size, (y - cy) / size) for pid, (_, x, y) in data.items()}
-    points = {}
-    for pair, contacts in contact_table(assembly).items():
-        rows = []
-        for c in contacts:
-            nx, ny = float(c.normal[0]), float(c.normal[1])
-            norm = math.hypot(nx, ny)
-            (px, py), (qx, qy) = ((float(v[0]), float(v[1])) for v in (c.p, c.q))
-            ends = [(px, py)] if c.p == c.q else [
-                (px + margin * (qx - px), py + margin * (qy - py)),
-                (qx - margin * (qx - px), qy - margin * (qy - py))]
-            for x, y in ends:
-                rows.append(((x - cx) / size, (y - cy) / size, nx / norm, ny / norm))
-        points[pair] = np.array(rows, dtype=float).reshape(-1, 4)
+    data = [_centroid_area(p) for p in assembly.parts]
+    mean_area = sum(a for a, _, _ in data) / len(data)
+    mass = np.array([a / mean_area for a, _, _ in data])
+    centroid = np.array([((x - cx) / size, (y - cy) / size) for _, x, y in data]).reshape(-1, 2)
     row = {pid: i for i, pid in enumerate(assembly.ids)}
-    own: list[list[np.ndarray]] = [[] for _ in row]
+    neighbours = [0] * len(row)
+    blocks, ends = [], []
+    own: list[list[np.ndarray]] = [[] for _ in row]  # each part's points, normals into it
     across: list[list[int]] = [[] for _ in row]
-    for (a, b), pts in points.items():
-        own[row[b]].append(pts)
-        across[row[b]] += [row[a]] * len(pts)
-        own[row[a]].append(np.concatenate([pts[:, :2], -pts[:, 2:]], axis=1))
-        across[row[a]] += [row[b]] * len(pts)
+    for (a, b), contacts in contact_table(assembly).items():
+        pts = _contact_rows(contacts, margin, cx, cy, size)
+        ia, ib = row[a], row[b]
+        neighbours[ia] |= 1 << ib
+        neighbours[ib] |= 1 << ia
+        blocks.append(pts)
+        ends += [(ia, ib)] * len(pts)
+        own[ib].append(pts)
+        across[ib] += [ia] * len(pts)
+        own[ia].append(np.concatenate([pts[:, :2], -pts[:, 2:]], axis=1))
+        across[ia] += [ib] * len(pts)
+    points = np.concatenate(blocks) if blocks else np.zeros((0, 4))
+    ends_ab = np.array(ends, dtype=np.intp).reshape(-1, 2)
     k = max([len(x) for x in across] + [1])
     own_points = np.zeros((len(row), k, 4))
-    partner = np.full((len(row), k), -1, dtype=int)
-    for i, blocks in enumerate(own):
-        if blocks:
-            own_points[i, :len(across[i])] = np.concatenate(blocks)
+    partner = np.full((len(row), k), len(row), dtype=np.intp)
+    for i, parts in enumerate(own):
+        if parts:
+            own_points[i, :len(across[i])] = np.concatenate(parts)
             partner[i, :len(across[i])] = across[i]
-    return _Geometry(mass, centroid, points, size, (cx, cy), row, own_points, partner)
+    return _Geometry(tuple(assembly.ids), row, mass, centroid, size, (cx, cy),
+                     tuple(neighbours), points, ends_ab[:, 0], ends_ab[:, 1], own_points,
+                     partner)
+
+
+@dataclass(frozen=True)
+class _Loads:
+    """Per geometry, gravity and friction: the mechanism table and the program's coefficients.
+    Column j < M of the program is the ray ``n + mu t`` at contact point j, column M + j the ray
+    ``n - mu t``; ``on_b`` [2M, 3] is what it adds to the second part's force and torque rows,
+    ``on_a`` to the first part's."""
+
+    mechanisms: MechanismTable
+    on_b: np.ndarray
+    on_a: np.ndarray
+
+
+def _build_loads(geo: _Geometry, g: tuple[float, float], mu: float) -> _Loads:
+    own = geo.own_points
+    table = mechanism_table(own[..., :2], own[..., 2:], geo.centroid, np.array(g), mu)
+    pts = geo.points
+    n, t = pts[:, 2:4], np.stack([-pts[:, 3], pts[:, 2]], axis=1)
+    rays = np.concatenate([n + mu * t, n - mu * t])  # [2M, 2]: force on b per unit weight
+    xy = np.concatenate([pts[:, :2], pts[:, :2]])
+    coefs = []
+    for owner, sign in ((geo.point_b, 1.0), (geo.point_a, -1.0)):
+        f = sign * rays
+        r = xy - geo.centroid[np.concatenate([owner, owner])]
+        coefs.append(np.stack([f[:, 0], f[:, 1], r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]], axis=1))
+    return _Loads(table, coefs[0], coefs[1])
 
 
 _GEOMETRY: OrderedDict[tuple, _Geometry] = OrderedDict()
+_LOADS: OrderedDict[tuple, _Loads] = OrderedDict()
 _RESULTS: OrderedDict[tuple, Support] = OrderedDict()
 _LOCK = threading.Lock()
 
 
-def _geometry(assembly: Assembly, margin: float) -> _Geometry:
-    key = (assembly.geometry_hash, margin)
+def _memo(cache: OrderedDict, key: tuple, make, size: int = 32):
     with _LOCK:
-        hit = _GEOMETRY.get(key)
+        hit = cache.get(key)
         if hit is not None:
-            _GEOMETRY.move_to_end(key)
+            cache.move_to_end(key)
             return hit
-    geo = _build(assembly, margin)
+    made = make()
     with _LOCK:
-        _GEOMETRY[key] = geo
-        while len(_GEOMETRY) > 32:
-            _GEOMETRY.popitem(last=False)
-    return geo
+        cache[key] = made
+        while len(cache) > size:
+            cache.popitem(last=False)
+    return made
+
+
+def _geometry(assembly: Assembly, margin: float) -> _Geometry:
+    return _memo(_GEOMETRY, (assembly.geometry_hash, margin), lambda: _build(assembly, margin))
 
 
 def _names(parts: list[str]) -> str:
@@ -177,76 +230,64 @@ def _names(parts: list[str]) -> str:
     return f"part {quoted}" if len(parts) == 1 else f"parts {quoted}"
 
 
-def _connectivity_reason(chosen: set[str], base: str, pairs) -> str:
-    """A reason when some part touches nothing or is cut off from the base, else ''."""
-    links: dict[str, set[str]] = {p: set() for p in chosen}
-    for a, b in pairs:
-        links[a].add(b)
-        links[b].add(a)
-    alone = sorted(p for p in chosen if p != base and not links[p])
+def _rows_of(geo: _Geometry, mask: int) -> list[str]:
+    out = []
+    while mask:
+        low = mask & -mask
+        out.append(geo.ids[low.bit_length() - 1])
+        mask ^= low
+    return sorted(out)
+
+
+def _connectivity_reason(geo: _Geometry, chosen: int, base: int) -> str:
+    """A reason when some part of the bit mask ``chosen`` touches nothing or is cut off from the
+    base, else ''."""
+    nb = geo.neighbours
+    alone, rest = 0, chosen & ~(1 << base)
+    while rest:
+        low = rest & -rest
+        if not nb[low.bit_length() - 1] & chosen:
+            alone |= low
+        rest ^= low
     if alone:
-        return f"{_names(alone)} {'touches' if len(alone) == 1 else 'touch'} no other part"
-    seen, todo = {base}, [base]
-    while todo:
-        for q in links[todo.pop()] - seen:
-            seen.add(q)
-            todo.append(q)
-    cut = sorted(chosen - seen)
+        one = alone & (alone - 1) == 0
+        return f"{_names(_rows_of(geo, alone))} {'touches' if one else 'touch'} no other part"
+    seen = frontier = 1 << base
+    while frontier:
+        grown = 0
+        while frontier:
+            low = frontier & -frontier
+            grown |= nb[low.bit_length() - 1]
+            frontier ^= low
+        frontier = grown & chosen & ~seen
+        seen |= frontier
+    cut = _rows_of(geo, chosen & ~seen)
     if cut:
         return f"{_names(cut)} {'rests' if len(cut) == 1 else 'rest'} on nothing connected to " \
-               f"the base {base!r}"
+               f"the base {geo.ids[base]!r}"
     return ""
 
 
-def _system(geo: _Geometry, movers: list[str], pairs, g: tuple[float, float], mu: float):
-    """A_eq, b_eq of the equilibrium of the parts ``movers`` (3 rows each)."""
-    row = {p: i for i, p in enumerate(movers)}
-    blocks = [geo.points[pair] for pair in pairs]
-    owners = [(row.get(a, -1), row.get(b, -1)) for a, b in pairs]
-    counts = [len(b) for b in blocks]
-    pts = np.concatenate(blocks) if blocks else np.zeros((0, 4))
-    ia = np.repeat([o[0] for o in owners], counts).astype(int)
-    ib = np.repeat([o[1] for o in owners], counts).astype(int)
-    n, t = pts[:, 2:4], np.stack([-pts[:, 3], pts[:, 2]], axis=1)
-    rays = np.concatenate([n + mu * t, n - mu * t])  # [2k, 2]: force on b per unit weight
-    xy = np.concatenate([pts[:, :2], pts[:, :2]])
-    ia, ib = np.concatenate([ia, ia]), np.concatenate([ib, ib])
-    cols = np.arange(len(rays))
-    a_eq = np.zeros((3 * len(movers), len(rays)))
-    cen = np.array([geo.centroid[p] for p in movers]).reshape(-1, 2)
-    for owner, sign in ((ib, 1.0), (ia, -1.0)):
-        ok = owner >= 0
-        k, c, f = owner[ok], cols[ok], sign * rays[ok]
-        r = xy[ok] - cen[k]
-        a_eq[3 * k, c] = f[:, 0]
-        a_eq[3 * k + 1, c] = f[:, 1]
-        a_eq[3 * k + 2, c] = r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
-    m = np.array([geo.mass[p] for p in movers])
+def _system(geo: _Geometry, loads: _Loads, present: np.ndarray, movers: np.ndarray,
+            g: tuple[float, float]):
+    """A_eq, b_eq of the equilibrium of the parts ``movers`` (rows, 3 equations each, in this
+    order) among the parts ``present`` (a bool mask over rows), and the movers' masses."""
+    at = np.full(len(geo.ids), -1, dtype=np.intp)
+    at[movers] = np.arange(len(movers))
+    sel = present[geo.point_a] & present[geo.point_b]
+    sel = np.concatenate([sel, sel])
+    a_eq = np.zeros((3 * len(movers), int(sel.sum())))
+    cols = np.arange(a_eq.shape[1])
+    for owner, coef in ((geo.point_b, loads.on_b), (geo.point_a, loads.on_a)):
+        k = at[np.concatenate([owner, owner])[sel]]
+        ok = k >= 0
+        k, c, f = k[ok], cols[ok], coef[sel][ok]
+        for i in range(3):
+            a_eq[3 * k + i, c] = f[:, i]
+    m = geo.mass[movers]
     b_eq = np.zeros(3 * len(movers))
     b_eq[0::3], b_eq[1::3] = -m * g[0], -m * g[1]
     return a_eq, b_eq, m
-
-
-def _mechanism_reason(geo: _Geometry, chosen: set[str], movers: list[str],
-                      g: tuple[float, float], mu: float) -> str:
-    """A reason when one part alone tips or slides with the others fixed
-    (``rap.sim.mechanisms``), else ''."""
-    rows = [geo.row[p] for p in movers]
-    present = np.zeros(len(geo.row) + 1, dtype=bool)  # the last entry: padding (-1)
-    present[[geo.row[p] for p in chosen]] = True
-    pts, partner = geo.own_points[rows], geo.partner[rows]
-    found_all = part_mechanisms(pts[..., :2], pts[..., 2:], present[partner],
-                                np.array([geo.centroid[p] for p in movers]), np.array(g), mu)
-    for part, found in zip(movers, found_all):
-        if found is None:
-            continue
-        if found.kind == "tip":
-            x, y = (geo.center[i] + geo.size * found.where[i] for i in (0, 1))
-            return f"part {part!r} would tip over about ({x:.4g}, {y:.4g})"
-        dx, dy = (v + 0.0 for v in found.where)  # + 0.0: no "-0" in the message
-        return (f"part {part!r} would {found.kind} along ({dx:.3g}, {dy:.3g}) with friction "
-                f"{mu:g}")
-    return ""
 
 
 def _blame(a_eq, b_eq, m, movers: list[str]) -> list[str]:
@@ -255,36 +296,64 @@ def _blame(a_eq, b_eq, m, movers: list[str]) -> list[str]:
     weight = np.repeat(m, 3)
     a_el = np.hstack([a_eq, np.diag(weight), -np.diag(weight)])
     c = np.concatenate([np.zeros(a_eq.shape[1]), np.ones(2 * rows)])
-    res = linprog(c, A_eq=a_el, b_eq=b_eq, bounds=(0, None), method="highs")
-    if res.status != 0:
+    x = solve_lp(a_el, b_eq, c).x
+    if x is None:
         return []
-    s = res.x[a_eq.shape[1]:]
+    s = x[a_eq.shape[1]:]
     slack = (s[:rows] + s[rows:]).reshape(-1, 3).sum(axis=1)
     return [p for p, v in zip(movers, slack) if v > _BLAME_SLACK]
 
 
-def _solve(assembly: Assembly, chosen: set[str], base: str, g: tuple[float, float],
-           mu: float, margin: float) -> Support:
-    movers = sorted(chosen - {base})
-    if not movers:
-        return Support(True)
-    pairs = sorted(contacts_within(assembly, chosen))
-    reason = _connectivity_reason(chosen, base, pairs)
-    if reason:
-        return Support(False, reason)
+def _mechanism_reason(geo: _Geometry, loads: _Loads, present: np.ndarray, movers: np.ndarray,
+                      mu: float) -> str:
+    """A reason when one part alone tips or slides with the others fixed
+    (``rap.sim.mechanisms``), else ''."""
+    found = first_mechanism(loads.mechanisms, movers, present[geo.partner[movers]])
+    if found is None:
+        return ""
+    part, found = geo.ids[movers[found[0]]], found[1]
+    if found.kind == "tip":
+        x, y = (geo.center[i] + geo.size * found.where[i] for i in (0, 1))
+        return f"part {part!r} would tip over about ({x:.4g}, {y:.4g})"
+    dx, dy = (v + 0.0 for v in found.where)  # + 0.0: no "-0" in the message
+    return f"part {part!r} would {found.kind} along ({dx:.3g}, {dy:.3g}) with friction {mu:g}"
+
+
+def _loads(assembly: Assembly, g: tuple[float, float], mu: float, margin: float) -> _Loads:
     geo = _geometry(assembly, margin)
-    reason = _mechanism_reason(geo, chosen, movers, g, mu)
+    return _memo(_LOADS, (assembly.geometry_hash, margin, g, mu), lambda: _build_loads(geo, g, mu))
+
+
+def _masks(geo: _Geometry, chosen: Iterable[str], base: str):
+    """The parts ``chosen`` as a bool mask over rows (one more entry: padding, never present),
+    the other parts' rows sorted by id, and their ids."""
+    present = np.zeros(len(geo.ids) + 1, dtype=bool)
+    present[[geo.row[p] for p in chosen]] = True
+    names = sorted(set(chosen) - {base})
+    return present, np.array([geo.row[p] for p in names], dtype=np.intp), names
+
+
+def _solve(assembly: Assembly, chosen: frozenset, base: str, g: tuple[float, float],
+           mu: float, margin: float) -> Support:
+    if len(chosen) == 1:
+        return Support(True)
+    geo = _geometry(assembly, margin)
+    reason = _connectivity_reason(geo, sum(1 << geo.row[p] for p in chosen), geo.row[base])
     if reason:
         return Support(False, reason)
-    a_eq, b_eq, m = _system(geo, movers, pairs, g, mu)
-    res = linprog(np.zeros(a_eq.shape[1]), A_eq=a_eq, b_eq=b_eq, bounds=(0, None),
-                  method="highs")
-    if res.status == 0:
+    present, movers, names = _masks(geo, chosen, base)
+    loads = _loads(assembly, g, mu, margin)
+    reason = _mechanism_reason(geo, loads, present, movers, mu)
+    if reason:
+        return Support(False, reason)
+    a_eq, b_eq, m = _system(geo, loads, present, movers, g)
+    status = solve_lp(a_eq, b_eq, np.zeros(a_eq.shape[1])).status
+    if status == "optimal":
         return Support(True)
-    if res.status != 2:  # HiGHS gave up (numerical trouble): not shown stable
-        return Support(False, f"{_names(movers)}: the equilibrium program failed "
-                              f"({res.message})")
-    named = _blame(a_eq, b_eq, m, movers) or movers
+    if status != "infeasible":  # HiGHS gave up (numerical trouble): not shown stable
+        return Support(False, f"{_names(names)}: the equilibrium program failed (HiGHS: "
+                              f"{status})")
+    named = _blame(a_eq, b_eq, m, names) or names
     one = len(named) == 1
     return Support(False, f"{_names(named)} {'has' if one else 'have'} no equilibrium under "
                           f"gravity with friction {mu:g}: {'it' if one else 'they'} would slide "
@@ -321,7 +390,7 @@ def check_static(assembly: Assembly, ids: Iterable[str], base: str,
         if hit is not None:
             _RESULTS.move_to_end(key)
             return hit
-    result = _solve(assembly, set(chosen), base, (gx / norm, gy / norm), mu, margin)
+    result = _solve(assembly, chosen, base, (gx / norm, gy / norm), mu, margin)
     with _LOCK:
         _RESULTS[key] = result
         while len(_RESULTS) > CACHE_SIZE:

@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rap.sim.mechanisms import single_part_mechanism
+from rap.sim.mechanisms import (first_mechanism, mechanism_table, part_mechanisms,
+                                single_part_mechanism)
 from rap.sim.statics import check_static
 from tests.sim.cells import DOWN, WALL, WEDGED
 
@@ -62,6 +63,37 @@ def test_wedged_between_walls_falls_whatever_the_friction():
 
 def test_no_contact_falls():
     assert mech(np.zeros((0, 2)), np.zeros((0, 2)), [0, 0]).kind == "fall"
+
+
+def _random_parts(rng, n_parts=12, k=7):
+    """Padded tables of parts whose contact points lie on a grid, normals among a few directions
+    (so that knife edges, sliding contacts and wedges occur), and a random mask of present ones."""
+    units = np.array([UP, RIGHT, LEFT, [0.0, -1.0], [-1.0, 2.0], [1.0, 2.0]])
+    units /= np.hypot(units[:, 0], units[:, 1])[:, None]
+    points = rng.integers(0, 3, size=(n_parts, k, 2)).astype(float)
+    normals = units[rng.integers(0, len(units), size=(n_parts, k))]
+    centroids = rng.integers(0, 5, size=(n_parts, 2)) / 2
+    return points, normals, centroids, rng.random((n_parts, k)) < 0.5
+
+
+@pytest.mark.parametrize("g,friction", [(G, 0.5), (G, 0.0), (np.array([0.6, -0.8]), 1.0)])
+def test_the_table_answers_every_subset_as_the_part_alone(g, friction):
+    """first_mechanism and part_mechanisms on padded tables with points masked out agree with
+    single_part_mechanism given only the present points."""
+    rng = np.random.default_rng(5)
+    kinds = set()
+    for _ in range(30):
+        points, normals, centroids, valid = _random_parts(rng)
+        alone = [single_part_mechanism(points[p][valid[p]], normals[p][valid[p]], centroids[p],
+                                       g, friction) for p in range(len(points))]
+        assert part_mechanisms(points, normals, valid, centroids, g, friction) == alone
+        table = mechanism_table(points, normals, centroids, g, friction)
+        rows = rng.permutation(len(points))[:8]
+        moving = [i for i, p in enumerate(rows) if alone[p] is not None]
+        got = first_mechanism(table, rows, valid[rows])
+        assert got == ((moving[0], alone[rows[moving[0]]]) if moving else None)
+        kinds |= {m.kind for m in alone if m is not None} | {m is None for m in alone}
+    assert {"tip", "slide", "fall", True} <= kinds
 
 
 def test_check_static_rejects_pre_stressed_equilibria():

@@ -3,15 +3,18 @@ facts, and agreement with the independent settling simulation (rap.sim.settling)
 
 from __future__ import annotations
 
+import gzip
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from rap.geometry.contacts import contacts_within, touching
+from rap.geometry.contacts import touching
 from rap.sim.settling import settle
-from rap.sim.statics import DEFAULT_MARGIN, Support, _geometry, _system, check_static
+from rap.sim.statics import (DEFAULT_MARGIN, Support, _geometry, _loads, _masks, _system,
+                              check_static)
 from tests.sim.cells import (AFRAME, AGREEMENT, ARCH, CANTILEVER, CENTRING, DOWN, OVERHANG, SLOPE,
                              STACK, WALL, WEDGED, wall_bricks)
 
@@ -114,8 +117,9 @@ def test_agrees_with_settling(case):
 def test_the_program_alone_accepts_pre_stress_that_the_mechanisms_reject():
     for asm, ids, base, mu in ((WEDGED, WEDGED.ids, "base", 10.0),
                                (WALL, ["plate", "c0_b0", "c1_b0", "c1_b1"], "plate", 0.5)):
-        a_eq, b_eq, _ = _system(_geometry(asm, DEFAULT_MARGIN), sorted(set(ids) - {base}),
-                                sorted(contacts_within(asm, ids)), DOWN, mu)
+        geo = _geometry(asm, DEFAULT_MARGIN)
+        present, movers, _ = _masks(geo, ids, base)
+        a_eq, b_eq, _ = _system(geo, _loads(asm, DOWN, mu, DEFAULT_MARGIN), present, movers, DOWN)
         assert linprog(np.zeros(a_eq.shape[1]), A_eq=a_eq, b_eq=b_eq, bounds=(0, None),
                        method="highs").status == 0  # feasible: an equilibrium with pre-stress
         assert not check_static(asm, ids, base, DOWN, mu).stable
@@ -145,3 +149,20 @@ def test_stable_wall_subsets_settle():
         if stable:
             assert settle(WALL, ids, "plate", DOWN).stable, ids
     assert any(verdicts) and not all(verdicts)
+
+
+RECORDED = Path(__file__).resolve().parents[1] / "data" / "statics" / "brick-wall-22-reachable.tsv.gz"
+
+
+@pytest.mark.slow
+def test_the_planners_wall_subsets_get_the_recorded_answers():
+    """The 10,362 subsets that reachable() checks on the wall (--base plate --gravity 0,-1) get
+    exactly the verdicts and reasons recorded before the check was rewritten over precomputed
+    tables and HiGHS called directly (about 4 s)."""
+    lines = [x for x in gzip.decompress(RECORDED.read_bytes()).decode().splitlines()
+             if not x.startswith("#")]
+    assert len(lines) == 10362
+    for line in lines:
+        mask, stable, reason = line.split("\t")
+        ids = [p for i, p in enumerate(WALL.ids) if int(mask, 16) >> i & 1]
+        assert check_static(WALL, ids, "plate", DOWN) == Support(stable == "1", reason), ids
