@@ -49,12 +49,14 @@ Cost: per geometry hash (and margin) the contact table and per-part arrays are b
 per gravity and friction the single-part mechanism table (``rap.sim.mechanisms``) and the
 program's coefficients, O(P K^2) for P parts of at most K contact points each. A call then costs
 a connectivity walk over bit masks, a few numpy operations that slice those tables by the subset's
-mask, and, only when no part moves alone, one LP solved by HiGHS (``highspy``, no scipy wrapper)
-on a sparse (3 x parts) by (2 x contact points) matrix, plus a second, elastic one to name the
-parts when it is infeasible. For a subset of the 22-brick wall: some tens of microseconds when a
-part moves alone, a few milliseconds with the program (``benchmarks/statics.py`` prints the
-figures). Results are memoised per ``(geometry hash, frozenset(ids), base, gravity, friction,
-margin)`` in a bounded LRU cache (``CACHE_SIZE`` entries); it is thread-safe.
+mask, and, only when no part moves alone, one LP (``rap.sim.lp``: HiGHS without scipy's wrapper)
+on a (3 x parts) by (2 x contact points) matrix, plus a second, elastic one to name the parts
+when it is infeasible. On the 22-brick wall: about 0.1 ms when a part moves alone, 1 to 2 ms with
+the program; the ~10,000 checks of the planner's ``reachable()`` with the plate as base take about
+4.5 s CPU, against 18.5 s through scipy's ``linprog`` and per-call contact loops before
+(``benchmarks/statics.py`` prints the figures). Results are memoised per ``(geometry hash,
+frozenset(ids), base, gravity, friction, margin)`` in a bounded LRU cache (``CACHE_SIZE``
+entries); it is thread-safe.
 """
 
 from __future__ import annotations
@@ -72,7 +74,8 @@ from rap.geometry.contacts import contact_table
 from rap.sim.lp import solve_lp
 from rap.sim.mechanisms import MechanismTable, first_mechanism, mechanism_table
 
-__all__ = ["DEFAULT_FRICTION", "DEFAULT_MARGIN", "Support", "check_static", "CACHE_SIZE"]
+__all__ = ["DEFAULT_FRICTION", "DEFAULT_MARGIN", "Support", "check_static", "clear_results",
+           "CACHE_SIZE"]
 
 DEFAULT_FRICTION = 0.5
 DEFAULT_MARGIN = 0.05  # of each contact segment's length, at each end (see the module doc)
@@ -230,28 +233,13 @@ def _names(parts: list[str]) -> str:
     return f"part {quoted}" if len(parts) == 1 else f"parts {quoted}"
 
 
-def _rows_of(geo: _Geometry, mask: int) -> list[str]:
-    out = []
-    while mask:
-        low = mask & -mask
-        out.append(geo.ids[low.bit_length() - 1])
-        mask ^= low
-    return sorted(out)
-
-
-def _connectivity_reason(geo: _Geometry, chosen: int, base: int) -> str:
-    """A reason when some part of the bit mask ``chosen`` touches nothing or is cut off from the
-    base, else ''."""
-    nb = geo.neighbours
-    alone, rest = 0, chosen & ~(1 << base)
-    while rest:
-        low = rest & -rest
-        if not nb[low.bit_length() - 1] & chosen:
-            alone |= low
-        rest ^= low
+def _connectivity_reason(geo: _Geometry, rows: list[int], base: int) -> str:
+    """A reason when some part of ``rows`` touches nothing or is cut off from the base, else ''
+    (a walk over bit masks of rows)."""
+    nb, chosen = geo.neighbours, sum(1 << r for r in rows)
+    alone = sorted(geo.ids[r] for r in rows if r != base and not nb[r] & chosen)
     if alone:
-        one = alone & (alone - 1) == 0
-        return f"{_names(_rows_of(geo, alone))} {'touches' if one else 'touch'} no other part"
+        return f"{_names(alone)} {'touches' if len(alone) == 1 else 'touch'} no other part"
     seen = frontier = 1 << base
     while frontier:
         grown = 0
@@ -261,7 +249,7 @@ def _connectivity_reason(geo: _Geometry, chosen: int, base: int) -> str:
             frontier ^= low
         frontier = grown & chosen & ~seen
         seen |= frontier
-    cut = _rows_of(geo, chosen & ~seen)
+    cut = sorted(geo.ids[r] for r in rows if not seen >> r & 1)
     if cut:
         return f"{_names(cut)} {'rests' if len(cut) == 1 else 'rest'} on nothing connected to " \
                f"the base {geo.ids[base]!r}"
@@ -338,7 +326,7 @@ def _solve(assembly: Assembly, chosen: frozenset, base: str, g: tuple[float, flo
     if len(chosen) == 1:
         return Support(True)
     geo = _geometry(assembly, margin)
-    reason = _connectivity_reason(geo, sum(1 << geo.row[p] for p in chosen), geo.row[base])
+    reason = _connectivity_reason(geo, [geo.row[p] for p in chosen], geo.row[base])
     if reason:
         return Support(False, reason)
     present, movers, names = _masks(geo, chosen, base)
@@ -396,3 +384,9 @@ def check_static(assembly: Assembly, ids: Iterable[str], base: str,
         while len(_RESULTS) > CACHE_SIZE:
             _RESULTS.popitem(last=False)
     return result
+
+
+def clear_results() -> None:
+    """Forget the memoised verdicts (the per-assembly tables stay): for timing first calls."""
+    with _LOCK:
+        _RESULTS.clear()
