@@ -240,7 +240,7 @@ def test_stability_is_checked_once_per_subassembly():
 
 
 def test_the_arch_needs_its_centring():
-    pytest.importorskip("scipy")
+    pytest.importorskip("highspy")
     result, _ = plan(cell("arch"), "sim", base="ground", gravity="0,-1")
     assert result.status is PlanStatus.INFEASIBLE and "--gravity 0,-1" in result.message
     asm = cell("arch-centring")
@@ -250,7 +250,7 @@ def test_the_arch_needs_its_centring():
 
 
 def test_the_wall_stands_at_every_step():
-    pytest.importorskip("scipy")
+    pytest.importorskip("highspy")
     asm = cell("brick-wall-22")
     result, _ = plan(asm, "sim", base="plate", gravity="0,-1")
     check(result, asm, base="plate", linear=True)
@@ -266,7 +266,7 @@ def _course(part: str) -> int:
 
 @pytest.mark.parametrize("method", ("search", "sim"))
 def test_layers_build_the_wall_course_by_course(method):
-    pytest.importorskip("scipy")
+    pytest.importorskip("highspy")
     asm = cell("brick-wall-22")
     result, _ = plan(asm, method, base="plate", gravity="0,-1", layers=True)
     check(result, asm, base="plate", linear=True)
