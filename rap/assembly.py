@@ -53,6 +53,8 @@ __all__ = [
     "check_units",
     "assembly_to_json",
     "signed_area2",
+    "area_moments",
+    "decimal_places",
     "InputLimits",
     "LIMITS",
     "json_error_reason",
@@ -99,6 +101,35 @@ def signed_area2(ring: Iterable[Point]) -> Fraction:
         x1, y1 = pts[(i + 1) % len(pts)]
         s += x0 * y1 - x1 * y0
     return s
+
+
+def area_moments(rings: Iterable[Iterable[Point]]) -> tuple[Fraction, Fraction, Fraction]:
+    """Exact (2A, 6A*cx, 6A*cy) of the region bounded by ``rings`` (signed: outer rings CCW, holes
+    CW, so holes subtract): twice the area and six times its first moments, so the centroid is
+    ``(m_x / (3 * a2), m_y / (3 * a2))``. O(total vertices)."""
+    a2 = cx6 = cy6 = Fraction(0)
+    for ring in rings:
+        pts = list(ring)
+        n = len(pts)
+        for i in range(n):
+            (x0, y0), (x1, y1) = pts[i], pts[(i + 1) % n]
+            c = x0 * y1 - x1 * y0
+            a2 += c
+            cx6 += (x0 + x1) * c
+            cy6 += (y0 + y1) * c
+    return a2, cx6, cy6
+
+
+def decimal_places(x: Fraction) -> int | None:
+    """The fewest digits after the point that write ``x`` exactly as a decimal (0 for an
+    integer), or None when ``x`` has no finite decimal expansion (its reduced denominator has a
+    prime factor other than 2 and 5). O(log denominator)."""
+    d, twos, fives = Fraction(x).denominator, 0, 0
+    while d % 2 == 0:
+        d, twos = d // 2, twos + 1
+    while d % 5 == 0:
+        d, fives = d // 5, fives + 1
+    return max(twos, fives) if d == 1 else None
 
 
 @dataclass(frozen=True)
@@ -221,14 +252,9 @@ def _num_json(v: Fraction) -> int | float:
     """A JSON number that ``rap.assembly_reader`` (decimal parsing) reads back as exactly ``v``."""
     if v.denominator == 1:
         return int(v.numerator)
-    den, twos, fives = v.denominator, 0, 0
-    while den % 2 == 0:
-        den, twos = den // 2, twos + 1
-    while den % 5 == 0:
-        den, fives = den // 5, fives + 1
-    if den != 1:
+    k = decimal_places(v)
+    if k is None:
         raise ValueError(f"{v} has no finite decimal expansion")
-    k = max(twos, fives)
     d = Decimal(v.numerator * 10 ** k // v.denominator).scaleb(-k)  # exact
     f = float(d)
     if Fraction(Decimal(repr(f))) == v:  # json writes repr(f); reading it back is exact

@@ -33,8 +33,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Callable, Iterable, Sequence
 
-from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, arc_middle_unit,
-                                exact_direction, in_open_arc, primitive, same_direction, unit)
+from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, exact_direction,
+                                in_open_arc, open_arc_middle, primitive, same_direction, unit)
 from rap.geometry.partitions import Partition
 
 __all__ = ["Arc", "FULL", "EDGE_DENOMINATOR", "cone_arc", "partition_arc", "intersect",
@@ -200,20 +200,9 @@ def arc_middle(arc: Arc, default: IVec = (0, 1)) -> tuple[IVec, tuple[float, flo
     if arc.full:
         d = primitive(default)
         return d, unit(d)
-    s, e = arc.start, arc.end
     if arc.is_point:
-        return s, unit(s)
-    c = s[0] * e[1] - s[1] * e[0]
-    if s[0] * s[0] + s[1] * s[1] == e[0] * e[0] + e[1] * e[1] and c != 0:
-        d = primitive((s[0] + e[0], s[1] + e[1]) if c > 0 else (-s[0] - e[0], -s[1] - e[1]))
-        u = unit(d)
-    else:
-        u = arc_middle_unit(s, e)
-        d = exact_direction(u)
-    if not in_open_arc(d, s, e):
-        d = arc_interior_vector(s, e)
-        u = unit(d)
-    return d, u
+        return arc.start, unit(arc.start)
+    return open_arc_middle(arc.start, arc.end)
 
 
 def choose_direction(arc: Arc, cones: Sequence[Arc], prefer: Sequence[Sequence[int]] = ()

@@ -40,6 +40,7 @@ __all__ = [
     "arc_middle_unit",
     "unit",
     "exact_direction",
+    "open_arc_middle",
     "neg",
     "sort_directions",
 ]
@@ -235,6 +236,25 @@ def exact_direction(d: Sequence) -> IVec:
     fx, fy = Fraction(d[0]), Fraction(d[1])
     den = lcm(fx.denominator, fy.denominator)
     return primitive((int(fx * den), int(fy * den)))
+
+
+def open_arc_middle(s: Sequence[int], e: Sequence[int]) -> tuple[IVec, tuple[float, float]]:
+    """(exact primitive direction, its float unit vector) strictly inside the open arc (s, e)
+    (counter-clockwise from s to e; s == e: the circle minus s), at its angular middle: the exact
+    bisector when s and e have equal length, else ``arc_middle_unit`` read exactly, replaced by
+    ``arc_interior_vector`` where floats fall outside a tiny arc. O(1) big-int operations."""
+    c = s[0] * e[1] - s[1] * e[0]
+    if s[0] * s[0] + s[1] * s[1] == e[0] * e[0] + e[1] * e[1] and c != 0:
+        # equal lengths: the exact bisector s + e (negated for arcs over 180 degrees)
+        d = primitive((s[0] + e[0], s[1] + e[1]) if c > 0 else (-s[0] - e[0], -s[1] - e[1]))
+        u = unit(d)
+    else:
+        u = arc_middle_unit(s, e)
+        d = exact_direction(u)
+    if not in_open_arc(d, s, e):  # floats fell outside a tiny arc: use an exact interior vector
+        d = arc_interior_vector(s, e)
+        u = unit(d)
+    return d, u
 
 
 def sort_directions(dirs: Iterable[Sequence[int]]) -> list[IVec]:

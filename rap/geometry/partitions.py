@@ -37,8 +37,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Iterable
 
-from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, arc_middle_unit,
-                                exact_direction, in_open_arc, primitive, unit)
+from rap.geometry.exact import IVec, angle_key, in_open_arc, open_arc_middle, primitive
 from rap.geometry.moving_sets import (TooManyPartitions, cell_segments, changed_cells, closure,
                                       ideals, subset_mask)
 from rap.geometry.ndbg import NDBG
@@ -113,17 +112,7 @@ def range_partition(ndbg: NDBG, moving: int, m: int, kf: int, kl: int, whole: bo
         e, e_closed = b.direction, True
     else:
         e, e_closed = b.end, False
-    c = s[0] * e[1] - s[1] * e[0]
-    if s[0] * s[0] + s[1] * s[1] == e[0] * e[0] + e[1] * e[1] and c != 0:
-        # equal lengths: the exact bisector s + e (negated for ranges over 180 degrees)
-        d = primitive((s[0] + e[0], s[1] + e[1]) if c > 0 else (-s[0] - e[0], -s[1] - e[1]))
-        u = unit(d)
-    else:
-        u = arc_middle_unit(s, e)
-        d = exact_direction(u)
-    if not in_open_arc(d, s, e):  # floats fell outside a tiny range: use an exact interior vector
-        d = arc_interior_vector(s, e)
-        u = unit(d)
+    d, u = open_arc_middle(s, e)
     return Partition(mov, fix, s, e, u, d, "range", s_closed, e_closed)
 
 

@@ -34,7 +34,7 @@ from rap.geometry.cones import intersect, partition_arc, choose_direction
 from rap.geometry.exact import exact_direction, primitive
 from rap.operation import Operation
 from rap.plan.constraints import SCORE_NOTE, CellConstraints
-from rap.plan.result import interlocked_message
+from rap.plan.result import interlocked_message, shrink_interlocked
 
 __all__ = ["constrained_candidates", "blocked_by", "constraint_stats", "reaim", "part_heights"]
 
@@ -170,20 +170,6 @@ def _below_a_placed_part(heights, op: Operation) -> bool:
     return any(heights[f][0] >= top for f in op.fixed)
 
 
-def _minimal_interlocked(problem, subset) -> frozenset:
-    """An inclusion-minimal subset of ``subset`` with no operation even without constraints."""
-    cur = sorted(subset)
-    changed = True
-    while changed and len(cur) > 2:
-        changed = False
-        for pid in list(cur):
-            rest = [p for p in cur if p != pid]
-            if len(rest) >= 2 and not problem.splits(rest, False):
-                cur, changed = rest, True
-                break
-    return frozenset(cur)
-
-
 def _gravity_reason(problem, subset: frozenset, c: CellConstraints) -> str:
     """Why gravity removes the operations of ``subset`` (the first unstable state's reason)."""
     if c.base not in subset:
@@ -232,7 +218,8 @@ def blocked_by(problem, subset) -> tuple[frozenset, str]:
         subset = _deepest_block(problem, subset, c)
     interlocked = not problem.splits(subset, False)
     if interlocked or not c.active or problem.candidates(subset):
-        culprit = _minimal_interlocked(problem, subset) if interlocked else subset
+        culprit = subset if not interlocked else shrink_interlocked(
+            subset, lambda rest: not problem.splits(rest, False))
         return culprit, interlocked_message(name, culprit)
     rules = c.rules()
     freeing = [r for r in rules if _obeying(problem, subset, c.relaxed(r))]

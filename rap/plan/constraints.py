@@ -47,6 +47,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Iterable, Sequence
 
+from rap.assembly import decimal_places
 from rap.errors import ParameterError
 from rap.geometry.cones import Arc, cone_arc
 
@@ -88,14 +89,9 @@ def _text(x: Fraction) -> str:
     x = Fraction(x)
     if x.denominator == 1:
         return str(x.numerator)
-    d, twos, fives = x.denominator, 0, 0
-    while d % 2 == 0:
-        d, twos = d // 2, twos + 1
-    while d % 5 == 0:
-        d, fives = d // 5, fives + 1
-    if d != 1:
+    k = decimal_places(x)
+    if k is None:
         return f"{x.numerator}/{x.denominator}"
-    k = max(twos, fives)
     m = abs(x.numerator) * 10 ** k // x.denominator
     digits = str(m).rjust(k + 1, "0")
     return ("-" if x < 0 else "") + (digits[:-k] + "." + digits[-k:]).rstrip("0")

@@ -32,10 +32,9 @@ numbers are rounded to 12 decimals (``tidy``): the motion's floats carry noise s
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from fractions import Fraction
 from typing import Sequence
 
-from rap.assembly import Assembly
+from rap.assembly import Assembly, area_moments
 from rap.operation import Operation
 from rap.plan.result import PlanResult, PlanStatus, RobotMove
 from rap.sim.placement import placement
@@ -51,16 +50,7 @@ CSV_COLUMNS = ("step", "moving", "fixed", "insertion_x", "insertion_y", "start_x
 
 def centroid(assembly: Assembly, ids: Sequence[str]) -> tuple[float, float]:
     """The area centroid of the parts ``ids`` (holes subtracted), exact then converted."""
-    a2 = cx = cy = Fraction(0)
-    for pid in ids:
-        for ring in assembly.part(pid).rings():  # outer CCW, holes CW: signed terms subtract
-            n = len(ring)
-            for i in range(n):
-                (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % n]
-                c = x0 * y1 - x1 * y0
-                a2 += c
-                cx += (x0 + x1) * c
-                cy += (y0 + y1) * c
+    a2, cx, cy = area_moments(ring for pid in ids for ring in assembly.part(pid).rings())
     return float(cx / (3 * a2)), float(cy / (3 * a2))
 
 

@@ -40,6 +40,7 @@ from rap.enumerate import label_key, label_seed
 from rap.errors import ParameterError
 from rap.operation import Operation
 from rap.plan.constraints import CellConstraints
+from rap.plan.result import shrink_interlocked
 from rap.seeds import DEFAULT_ROOT_SEED
 
 __all__ = ["SPACES", "check_space", "PlanningProblem", "PartitionFn", "StabilityFn",
@@ -194,15 +195,6 @@ class PlanningProblem:
 
 def minimal_interlocked(problem: PlanningProblem, subset: Iterable[str]) -> frozenset[str]:
     """Shrink an interlocked ``subset`` to an inclusion-minimal interlocked one by dropping parts
-    one at a time while the rest stays interlocked. O(n^2) candidate queries."""
-    cur = sorted(subset)
-    changed = True
-    while changed and len(cur) > 2:
-        changed = False
-        for pid in list(cur):
-            rest = [p for p in cur if p != pid]
-            if len(rest) >= 2 and problem.is_interlocked(rest):
-                cur = rest
-                changed = True
-                break
-    return frozenset(cur)
+    one at a time while the rest stays interlocked (``rap.plan.result.shrink_interlocked``).
+    O(n^2) candidate queries."""
+    return shrink_interlocked(subset, problem.is_interlocked)

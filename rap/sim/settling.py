@@ -36,8 +36,8 @@ import numpy as np
 import pymunk
 
 from rap.assembly import Assembly
-from rap.sim.shapes import assembly_pieces
-from rap.sim.statics import DEFAULT_FRICTION
+from rap.sim.shapes import area_centroid, assembly_pieces
+from rap.sim.statics import DEFAULT_FRICTION, check_support_args
 
 __all__ = ["Settling", "SettlingParams", "DEFAULT_SETTLING", "settle"]
 
@@ -74,18 +74,6 @@ class Settling:
     displacements: tuple[tuple[str, float], ...] = ()
 
 
-def _centroid(pieces) -> tuple[float, float]:
-    a_sum = cx = cy = 0.0
-    for poly in pieces:
-        x0, y0 = poly[0]
-        for (x1, y1), (x2, y2) in zip(poly[1:-1], poly[2:]):
-            a = ((x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)) / 2
-            a_sum += a
-            cx += a * (x0 + x1 + x2) / 3
-            cy += a * (y0 + y1 + y2) / 3
-    return cx / a_sum, cy / a_sum
-
-
 def settle(assembly: Assembly, ids: Iterable[str], base: str, gravity: tuple[float, float],
            seconds: float = 2.0, friction: float = DEFAULT_FRICTION,
            params: SettlingParams = DEFAULT_SETTLING) -> Settling:
@@ -93,16 +81,7 @@ def settle(assembly: Assembly, ids: Iterable[str], base: str, gravity: tuple[flo
     ``seconds``; see the module doc. ``ValueError`` when ``base`` is not in ``ids``, gravity is
     zero or friction negative; ``KeyError`` for an unknown part."""
     chosen = sorted(set(ids))
-    if base not in chosen:
-        raise ValueError(f"the base part {base!r} is not among the parts")
-    for pid in chosen:
-        assembly.index(pid)
-    gx, gy = float(gravity[0]), float(gravity[1])
-    norm = math.hypot(gx, gy)
-    if not (math.isfinite(norm) and norm > 0):
-        raise ValueError(f"gravity must be a nonzero finite direction, not {tuple(gravity)}")
-    if not (math.isfinite(friction) and friction >= 0):
-        raise ValueError(f"friction must be a finite number >= 0, not {friction}")
+    gx, gy, norm = check_support_args(assembly, chosen, base, gravity, friction)
 
     x0, y0, x1, y1 = assembly.bounds()
     scale = params.world_size / max(x1 - x0, y1 - y0)
@@ -128,7 +107,7 @@ def settle(assembly: Assembly, ids: Iterable[str], base: str, gravity: tuple[flo
     bodies, local, origin, size = [], [], [], []
     for pid in movers:
         polys = [world(pc) for pc in pieces[pid]]
-        gx0, gy0 = _centroid(polys)
+        _, gx0, gy0 = area_centroid(polys)
         body = pymunk.Body()
         body.position = (gx0, gy0)
         shapes = []

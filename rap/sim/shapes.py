@@ -17,7 +17,7 @@ from functools import lru_cache
 
 from rap.assembly import Assembly, Part
 
-__all__ = ["convex_pieces", "triangles", "assembly_pieces"]
+__all__ = ["convex_pieces", "triangles", "assembly_pieces", "area_centroid"]
 
 Pt = tuple[Fraction, Fraction]
 
@@ -130,3 +130,18 @@ def _cached(assembly: Assembly) -> dict[str, tuple[tuple[tuple[float, float], ..
 def assembly_pieces(assembly: Assembly) -> dict[str, tuple[tuple[tuple[float, float], ...], ...]]:
     """Float convex pieces of every part, keyed by part id (cached per assembly)."""
     return _cached(assembly)
+
+
+def area_centroid(pieces) -> tuple[float, float, float]:
+    """(area, centroid x, centroid y) of the union of float convex ``pieces`` (each a vertex
+    list, counter-clockwise, as ``assembly_pieces`` gives them), by fan triangulation.
+    O(total vertices); precondition: a positive total area."""
+    a_sum = cx = cy = 0.0
+    for poly in pieces:
+        x0, y0 = poly[0]
+        for (x1, y1), (x2, y2) in zip(poly[1:-1], poly[2:]):
+            a = ((x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)) / 2
+            a_sum += a
+            cx += a * (x0 + x1 + x2) / 3
+            cy += a * (y0 + y1 + y2) / 3
+    return a_sum, cx / a_sum, cy / a_sum

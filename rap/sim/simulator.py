@@ -47,7 +47,7 @@ from rap.operation import Operation
 from rap.sim import kernel
 from rap.sim.params import DEFAULT_PARAMS, SimParams
 from rap.sim.placement import placement
-from rap.sim.shapes import assembly_pieces
+from rap.sim.shapes import area_centroid, assembly_pieces
 
 __all__ = ["SimResult", "simulate", "Scene", "build_scene", "run_trials", "RunInfo", "Trajectories",
            "warm_up"]
@@ -103,18 +103,6 @@ class Scene:
     start_offset: tuple[float, float]  # assembly units
 
 
-def _area_centroid(pieces) -> tuple[float, float, float]:
-    a_sum = cx = cy = 0.0
-    for poly in pieces:
-        x0, y0 = poly[0]
-        for (x1, y1), (x2, y2) in zip(poly[1:-1], poly[2:]):
-            a = ((x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)) / 2
-            a_sum += a
-            cx += a * (x0 + x1 + x2) / 3
-            cy += a * (y0 + y1 + y2) / 3
-    return a_sum, cx / a_sum, cy / a_sum
-
-
 def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
                 trials: int | None = None) -> Scene:
     """Build the shared space: ``trials`` moving bodies at the start, each with its static copy.
@@ -133,7 +121,7 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
 
     fixed = [world(pc) for i in sorted(operation.fixed) for pc in pieces[i]]
     moving = [world(pc) for i in sorted(operation.moving) for pc in pieces[i]]
-    _, gx, gy = _area_centroid(moving)
+    _, gx, gy = area_centroid(moving)
     moving_local = [[(x - gx, y - gy) for x, y in pc] for pc in moving]
     goal = np.array([gx, gy])
     d = np.array(pl.direction, dtype=float)

@@ -69,13 +69,14 @@ from typing import Iterable
 
 import numpy as np
 
-from rap.assembly import Assembly
+from rap.assembly import Assembly, area_moments
 from rap.geometry.contacts import contact_table
+from rap.geometry.moving_sets import closure
 from rap.sim.lp import solve_lp
 from rap.sim.mechanisms import MechanismTable, first_mechanism, mechanism_table
 
-__all__ = ["DEFAULT_FRICTION", "DEFAULT_MARGIN", "Support", "check_static", "clear_results",
-           "CACHE_SIZE"]
+__all__ = ["DEFAULT_FRICTION", "DEFAULT_MARGIN", "Support", "check_static", "check_support_args",
+           "clear_results", "CACHE_SIZE"]
 
 DEFAULT_FRICTION = 0.5
 DEFAULT_MARGIN = 0.05  # of each contact segment's length, at each end (see the module doc)
@@ -113,15 +114,7 @@ class _Geometry:
 
 def _centroid_area(part) -> tuple[float, float, float]:
     """Exact area and centroid of a part (holes included), returned as floats."""
-    a2 = cx6 = cy6 = 0
-    for ring in part.rings():
-        n = len(ring)
-        for i in range(n):
-            (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % n]
-            c = x0 * y1 - x1 * y0
-            a2 += c
-            cx6 += (x0 + x1) * c
-            cy6 += (y0 + y1) * c
+    a2, cx6, cy6 = area_moments(part.rings())
     return float(a2 / 2), float(cx6 / (3 * a2)), float(cy6 / (3 * a2))
 
 
@@ -240,15 +233,7 @@ def _connectivity_reason(geo: _Geometry, rows: list[int], base: int) -> str:
     alone = sorted(geo.ids[r] for r in rows if r != base and not nb[r] & chosen)
     if alone:
         return f"{_names(alone)} {'touches' if len(alone) == 1 else 'touch'} no other part"
-    seen = frontier = 1 << base
-    while frontier:
-        grown = 0
-        while frontier:
-            low = frontier & -frontier
-            grown |= nb[low.bit_length() - 1]
-            frontier ^= low
-        frontier = grown & chosen & ~seen
-        seen |= frontier
+    seen = closure(1 << base, nb, chosen)
     cut = sorted(geo.ids[r] for r in rows if not seen >> r & 1)
     if cut:
         return f"{_names(cut)} {'rests' if len(cut) == 1 else 'rest'} on nothing connected to " \
@@ -348,16 +333,11 @@ def _solve(assembly: Assembly, chosen: frozenset, base: str, g: tuple[float, flo
                           f"or tip")
 
 
-def check_static(assembly: Assembly, ids: Iterable[str], base: str,
-                 gravity: tuple[float, float], friction: float = DEFAULT_FRICTION,
-                 margin: float = DEFAULT_MARGIN) -> Support:
-    """Is there an equilibrium of the parts ``ids`` standing on the fixed part ``base`` under
-    ``gravity`` with Coulomb friction coefficient ``friction``, the contact segments shortened by
-    ``margin`` of their length at each end? (See the module doc for the model, the margin, the
-    reasons and the cost.) ``ValueError`` when ``base`` is not in ``ids``, gravity is zero or not
-    finite, friction is negative or margin outside [0, 0.5); ``KeyError`` for an unknown part
-    id."""
-    chosen = frozenset(ids)
+def check_support_args(assembly: Assembly, chosen, base: str, gravity: tuple[float, float],
+                       friction: float) -> tuple[float, float, float]:
+    """(gx, gy, |g|) as floats after checking the arguments of a support question (``check_static``,
+    ``rap.sim.settling.settle``): ``ValueError`` when ``base`` is not in ``chosen``, gravity is zero
+    or not finite, or friction negative or not finite; ``KeyError`` for an unknown part id."""
     if base not in chosen:
         raise ValueError(f"the base part {base!r} is not among the parts")
     for pid in chosen:
@@ -369,6 +349,21 @@ def check_static(assembly: Assembly, ids: Iterable[str], base: str,
     mu = float(friction)
     if not (math.isfinite(mu) and mu >= 0):
         raise ValueError(f"friction must be a finite number >= 0, not {friction}")
+    return gx, gy, norm
+
+
+def check_static(assembly: Assembly, ids: Iterable[str], base: str,
+                 gravity: tuple[float, float], friction: float = DEFAULT_FRICTION,
+                 margin: float = DEFAULT_MARGIN) -> Support:
+    """Is there an equilibrium of the parts ``ids`` standing on the fixed part ``base`` under
+    ``gravity`` with Coulomb friction coefficient ``friction``, the contact segments shortened by
+    ``margin`` of their length at each end? (See the module doc for the model, the margin, the
+    reasons and the cost.) ``ValueError`` when ``base`` is not in ``ids``, gravity is zero or not
+    finite, friction is negative or margin outside [0, 0.5); ``KeyError`` for an unknown part
+    id."""
+    chosen = frozenset(ids)
+    gx, gy, norm = check_support_args(assembly, chosen, base, gravity, friction)
+    mu = float(friction)
     margin = float(margin)
     if not (0 <= margin < 0.5):
         raise ValueError(f"margin must be in [0, 0.5), not {margin}")
