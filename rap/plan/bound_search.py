@@ -57,6 +57,58 @@ class SearchScores:
     predicted: dict = field(default_factory=dict)
     bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
     simulated: dict = field(default_factory=dict)
+    # id(op) -> (op, key): a key is a SHA-256 of the operation's content, the search's main
+    # bookkeeping cost when recomputed; the op is held so that its id is never reused
+    _keys: dict = field(default_factory=dict, repr=False)
+    # view -> subassembly -> its candidates' scores in that view; dropped for a subassembly when
+    # one of its operations is predicted or simulated, for every one when the view changes
+    _lists: dict = field(default_factory=lambda: {"of": {}, "high": {}, "simulated_or_0": {}},
+                         repr=False)
+    # view -> the (exact, bounded) tables of the dynamic programmes over that view, kept between
+    # rounds: an entry is dropped when a subassembly it contains changes scores in that view
+    _memo: dict = field(default_factory=lambda: {v: ({}, {}) for v in
+                                                 ("of", "high", "simulated_or_0")}, repr=False)
+
+    def key(self, op) -> str:
+        """``problem.key(op)``, memoised by the operation object."""
+        hit = self._keys.get(id(op))
+        if hit is not None and hit[0] is op:
+            return hit[1]
+        k = self.problem.key(op)
+        self._keys[id(op)] = (op, k)
+        return k
+
+    def scores(self, view: str, s: frozenset, ops) -> list:
+        """``[getattr(self, view)(op) for op in ops]`` for ``ops``, the candidates of ``s`` (the
+        same list each time), memoised until one of them is predicted or simulated (module doc,
+        ``view``: ``of``, ``high`` or ``simulated_or_0``)."""
+        cache = self._lists[view]
+        out = cache.get(s)
+        if out is None:
+            f = getattr(self, view)
+            out = cache[s] = [f(op) for op in ops]
+        return out
+
+    def memo(self, view: str) -> tuple[dict, dict]:
+        """The tables a dynamic programme over ``view``'s scores keeps between calls
+        (``rap.plan.bounded_dp.dp_choice_bounded``'s ``memo``; ``max_value``'s)."""
+        return self._memo[view]
+
+    def cached(self, view: str, s: frozenset) -> bool:
+        """Whether ``scores(view, s, ...)`` is memoised (then its operations are predicted)."""
+        return s in self._lists[view]
+
+    def _changed(self, ops, views=("of", "high", "simulated_or_0")) -> None:
+        """Forget the scores of ``ops``' subassemblies and the values over ``views`` of every
+        subassembly containing one of them."""
+        subs = {op.moving | op.fixed for op in ops}
+        for view, cache in self._lists.items():
+            # a value below S was computed from S's scores, which stay listed until now
+            read = [s for s in subs if cache.pop(s, None) is not None]
+            if read and view in views:
+                for table in self._memo[view]:
+                    for s in [s for s in table if any(x <= s for x in read)]:
+                        del table[s]
 
     @property
     def raised(self) -> bool:
@@ -66,13 +118,16 @@ class SearchScores:
     def lower(self) -> None:
         """Choose by what is known from now on (the budget is spent)."""
         self.optimism = self.upper = 0.0
+        self._lists["of"].clear()
+        for table in self._memo["of"]:
+            table.clear()
 
     def predict(self, ops) -> None:
         """The model's expected score (and its upper bound) of each operation not predicted yet,
         in one CNN batch."""
         todo = {}
         for op in ops:
-            k = self.problem.key(op)
+            k = self.key(op)
             if k not in self.predicted and k not in todo:
                 todo[k] = op
         if todo:
@@ -82,10 +137,12 @@ class SearchScores:
             for k, v, w in zip(todo, p, u):
                 self.predicted[k] = float(v)
                 self.bound[k] = float(w)
+            # first scores: only the bounds (1 before) can have been read, by ``high``
+            self._changed(todo.values(), ("high",))
 
     def of(self, op) -> float:
         """The score the search chooses by (module doc)."""
-        k = self.problem.key(op)
+        k = self.key(op)
         if k in self.simulated:
             return self.simulated[k]
         p = self.predicted[k]
@@ -100,36 +157,46 @@ class SearchScores:
 
     def known(self, op) -> float:
         """Simulated, else predicted."""
-        k = self.problem.key(op)
+        k = self.key(op)
         return self.simulated[k] if k in self.simulated else self.predicted[k]
 
     def high(self, op) -> float:
         """Simulated, else the upper bound (1 for an operation not predicted)."""
-        k = self.problem.key(op)
+        k = self.key(op)
         return self.simulated[k] if k in self.simulated else self.bound.get(k, 1.0)
 
     def is_simulated(self, op) -> bool:
-        return self.problem.key(op) in self.simulated
+        return self.key(op) in self.simulated
 
     def simulate(self, ops) -> None:
         """Simulate the operations not simulated yet (one batch)."""
-        ops = [op for op in ops if self.problem.key(op) not in self.simulated]
+        ops = [op for op in ops if self.key(op) not in self.simulated]
         for op, sc in zip(ops, self.scorer.scores(self.problem, ops)):
-            self.simulated[self.problem.key(op)] = float(sc)
+            self.simulated[self.key(op)] = float(sc)
+        self._changed(ops)
 
     def add_simulated(self, ops, scores) -> None:
         """Scores simulated elsewhere (a plan's evaluation)."""
+        ops = list(ops)
         for op, sc in zip(ops, scores):
-            self.simulated[self.problem.key(op)] = float(sc)
+            self.simulated[self.key(op)] = float(sc)
+        self._changed(ops)
+
+    def simulated_or_0(self, op) -> float:
+        """Simulated, else 0 (what the incumbent is chosen by)."""
+        return self.simulated.get(self.key(op), 0.0)
 
 
-def max_value(graph: Graph, scores_of, whole: frozenset) -> float:
+def max_value(graph: Graph, scores_of, whole: frozenset,
+              memo: tuple[dict, dict] | None = None) -> float:
     """``max over sequences of the product of scores`` below ``whole`` (1 for a single part, 0
     when none exists); ``scores_of(S)``: the scores in [0, 1] of ``graph[S]`` in order, asked at
     most once per subassembly. Branch and bound as ``rap.plan.bounded_dp``, but a candidate that
-    can at most tie is pruned (only the value is wanted). Recursion depth at most the parts."""
-    exact: dict[frozenset, float] = {}
-    bounded: dict[frozenset, float] = {}
+    can at most tie is pruned (only the value is wanted). Recursion depth at most the parts.
+    ``memo``: ``(exact, bounded)`` kept between calls, as ``dp_choice_bounded``'s."""
+    exact: dict[frozenset, float]
+    bounded: dict[frozenset, float]
+    exact, bounded = memo if memo is not None else ({}, {})
     asked: dict[frozenset, list] = {}
 
     def value(s: frozenset, tau: float) -> tuple[float, bool]:
@@ -172,9 +239,9 @@ def incumbent(graph: Graph, scores: SearchScores, whole: frozenset) -> tuple[flo
     """The best sequence whose operations are all simulated: (its robustness, subassembly ->
     operation), or (0.0, None) when no such sequence exists. No prediction is asked for."""
     def scores_of(s):
-        return [scores.simulated.get(scores.problem.key(op), 0.0) for op in graph[s]]
+        return scores.scores("simulated_or_0", s, graph[s])
 
-    best, tree = dp_choice_bounded(graph, scores_of, whole)
+    best, tree = dp_choice_bounded(graph, scores_of, whole, scores.memo("simulated_or_0"))
     if best <= 0.0:
         return 0.0, None
     return best, {sub: op for sub, (_, op) in tree.items()}

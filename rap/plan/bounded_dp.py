@@ -12,7 +12,8 @@ found early and prunes the rest.
 ``value(S, tau)`` returns ``best(S)`` exactly when it exceeds ``tau``, else an upper bound no
 larger than ``tau`` (marked as such, never mistaken for a value); pruning compares with a relative
 slack of ``SLACK`` so that rounding never prunes a candidate that ties with the best (ties must be
-seen to keep the first maximiser). Memory: O(subassemblies visited).
+seen to keep the first maximiser). Memory: O(subassemblies visited). A search that solves it
+again after a few scores changed keeps the values below the changes (``memo``).
 
 Cost: at most the full DP's work (every subassembly's candidates scored once); how much less
 depends on how the scores are spread, not on whether they are right (measured: docs/RESULTS.md,
@@ -32,14 +33,19 @@ SLACK = 1.0 - 1e-9  # prune only below (1 - 1e-9) x the bar: rounding never hide
 
 
 def dp_choice_bounded(graph: Graph, scores_of: Callable[[frozenset], Sequence[float]],
-                      whole: frozenset) -> tuple[float, Tree]:
+                      whole: frozenset, memo: tuple[dict, dict] | None = None
+                      ) -> tuple[float, Tree]:
     """``(best(whole), tree)``: ``tree`` maps every composite subassembly of the chosen
     decomposition to ``(candidate index, operation)``, as ``dp_tree(graph, dp_choice(...)[1],
     whole)``; ``(0.0, {})`` when no sequence exists (best 0), ``(1.0, {})`` for a single part.
     ``scores_of(S)``: the scores in [0, 1] of ``graph[S]`` in order (asked once per visit of
-    ``S``; a subassembly first bounded is visited again when a lower bar needs its value)."""
-    exact: dict[frozenset, tuple[float, int]] = {}
-    bound: dict[frozenset, float] = {}
+    ``S``; a subassembly first bounded is visited again when a lower bar needs its value).
+    ``memo``: ``(exact, bound)``, what earlier calls with the same scores found (each entry
+    depends only on the scores of the subassemblies below it), used and filled in; a caller whose
+    scores change drops the entries of every subassembly containing one whose scores changed."""
+    exact: dict[frozenset, tuple[float, int]]
+    bound: dict[frozenset, float]
+    exact, bound = memo if memo is not None else ({}, {})
 
     def value(s: frozenset, tau: float) -> tuple[float, bool]:
         if len(s) < 2:

@@ -16,7 +16,8 @@ only where it decides:
    its candidates and keeps the ``beam_width`` states of highest score product (all states hold
    the same number of operations, so products compare fairly). Predictions are cached by
    operation key across states; memory is O(beam_width x parts) states plus the cache.
-3. **Simulations where they matter**: up to ``simulations`` fresh simulations (default 0). In
+3. **Simulations where they matter**: up to ``simulations`` fresh simulations (here 0; ``plan``'s
+   default, ``rap.plan.methods.SearchOptions``: 200 with ``upper`` 0.35 and ``gap`` 0.05). In
    exact mode, the operations of the chosen sequence that were not simulated yet are simulated
    (one batch per round), their scores replace the predictions, and the DP is solved again, until
    every operation of the chosen sequence is simulated or trusted, or the budget is spent. An
@@ -46,8 +47,8 @@ only where it decides:
    (largest chosen / known score), instead of all of them. With ``upper = 1`` (no optimism, no
    trust) the choice's value is ``V`` and this is branch and bound: the search stops when the
    best fully simulated sequence (the *incumbent* ``I``) reaches ``V`` (nothing left can beat
-   it). With ``gap`` (None: off; any ``upper`` or optimism) ``V`` is computed each round and the
-   search stops once ``I >= (1 - gap) V``. Otherwise it stops when the choice is settled or the
+   it). With ``gap`` (None or 0: off; any ``upper`` or optimism) ``V`` is computed each round
+   and the search stops once ``I >= (1 - gap) V`` (never with ``simulations`` 0: no incumbent). Otherwise it stops when the choice is settled or the
    budget spent (then the plan is chosen by what is known, as above); a stop by ``gap`` or ``V``
    returns the incumbent (``stats["stopped"]``: ``settled``, ``budget``, ``gap`` or ``bound``,
    ``stats["stopped_after"]`` the simulations spent). In beam mode ``V`` and the incumbent range
@@ -128,7 +129,7 @@ class SearchPlanner(Planner):
         self.lazy = bool(lazy)  # False: score the whole graph in one batch first (same plan)
         self.upper = float(upper)
         self.confidence = float(confidence)
-        self.gap = None if gap is None else float(gap)
+        self.gap = float(gap) if gap else None  # 0: off, as None
         self.bounds = bounds
         self.bound_round = int(bound_round)
 
@@ -151,7 +152,7 @@ class SearchPlanner(Planner):
     def _to_simulate(self, scores: SearchScores, ops) -> list:
         """The operations of a chosen sequence still worth a simulation: not simulated, and not
         trusted (predicted score below ``trust``); with bounds, the most raised first."""
-        key = scores.problem.key
+        key = scores.key
         todo = [op for op in ops if key(op) not in scores.simulated
                 and (self.trust is None or scores.predicted[key(op)] < self.trust)]
         if scores.upper:
@@ -172,6 +173,8 @@ class SearchPlanner(Planner):
     def _watching(self, scores: SearchScores) -> bool:
         """Whether each round compares the incumbent with the bound: with ``gap``, or when the
         bound comes free with the choice."""
+        if not self.simulations:  # nothing simulated, no incumbent: the bound cannot stop it
+            return False
         return self.gap is not None or self._free_bound(scores)
 
     def _settled(self, best: float, value: float, spent: int, stats: dict) -> bool:
@@ -210,7 +213,7 @@ class SearchPlanner(Planner):
         _CURRENT.run = run
         steps = {}
         for sub, op in trees.items():
-            k = problem.key(op)
+            k = scores.key(op)
             steps[sub] = PlanStep.of(op, "sim" if k in scores.simulated else "cnn",
                                      score=scores.simulated.get(k),
                                      confidence=scores.predicted.get(k))
@@ -237,9 +240,9 @@ class SearchPlanner(Planner):
         def scores_of(s):
             if scores.bounds.calibrated:  # uncalibrated: every bound is 1, no CNN needed
                 scores.predict(graph[s])
-            return [scores.high(op) for op in graph[s]]
+            return scores.scores("high", s, graph[s])
 
-        return max_value(graph, scores_of, whole)
+        return max_value(graph, scores_of, whole, scores.memo("high"))
 
     # -- exact ------------------------------------------------------------------------------------
     def _exact(self, graph, scores: SearchScores, whole, stats) -> dict:
@@ -248,12 +251,13 @@ class SearchPlanner(Planner):
             scores.predict([op for c in graph.values() for op in c])
 
         def scores_of(s):  # predicted on the first visit, one CNN batch per subassembly
-            scores.predict(graph[s])
-            return [scores.of(op) for op in graph[s]]
+            if not scores.cached("of", s):
+                scores.predict(graph[s])
+            return scores.scores("of", s, graph[s])
 
         spent = 0
         while True:
-            best, tree = dp_choice_bounded(graph, scores_of, whole)
+            best, tree = dp_choice_bounded(graph, scores_of, whole, scores.memo("of"))
             if best <= 0.0:
                 raise Interlocked(dead_end(graph, whole))
             choice = {sub: op for sub, (_, op) in tree.items()}

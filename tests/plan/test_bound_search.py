@@ -163,12 +163,13 @@ def test_max_value_is_the_dynamic_programme():
 
 
 def test_options_names_and_json():
-    opts = from_table_name("search-s200-u100-c90-g5")
-    assert (opts.simulations, opts.upper, opts.confidence, opts.gap) == (200, 1.0, 0.9, 0.05)
-    assert opts.table_name() == "search-s200-u100-c90-g5"
-    assert SearchOptions().table_name() == "search" and SearchOptions().gap is None
+    opts = from_table_name("search-s100-u100-c90-g10")
+    assert (opts.simulations, opts.upper, opts.confidence, opts.gap) == (100, 1.0, 0.9, 0.1)
+    assert opts.table_name() == "search-s100-u100-c90-g10"
+    assert SearchOptions().table_name() == "search" and SearchOptions().gap == 0.05
+    assert from_table_name("search-s200-u35-c95-g5") == SearchOptions()  # the defaults
     planner = opts.build()
-    assert (planner.upper, planner.confidence, planner.gap) == (1.0, 0.9, 0.05)
+    assert (planner.upper, planner.confidence, planner.gap) == (1.0, 0.9, 0.1)
     problem = PlanningProblem(six("hexagon"), PARAMS)
     found = SearchPlanner(bounds=covering(), confidence=0.9).solve(problem, scorer(low(0)))
     doc = found.to_json()

@@ -82,7 +82,7 @@ def test_experiment_names_read_and_written():
     assert opts.table_name() == "rap-k2"  # p90 is the default
     assert from_table_name("rap-paper").table_name() == "rap-paper"
     s = from_table_name("search-s200-o10")
-    assert s == SearchOptions(simulations=200, optimism=0.1) and s.table_name() == "search-s200-o10"
+    assert s == SearchOptions(simulations=200, optimism=0.1) and s.table_name() == "search-o10"
     assert from_table_name("search-t97").trust == 0.97
     assert from_table_name("random", samples=5).samples == 5
     for bad, why in (("rap-k2-k3", "rap options are -kK"), ("rap-p0", "P must lie in 1..100"),
@@ -92,6 +92,20 @@ def test_experiment_names_read_and_written():
             from_table_name(bad)
     with pytest.raises(ValueError, match="no experiment method name"):
         SearchOptions(trust=0.975).table_name()  # not a whole percentage
+
+
+def test_search_defaults_and_the_previous_default_round_trip():
+    d = SearchOptions()
+    assert (d.simulations, d.upper, d.confidence, d.gap) == (200, 0.35, 0.95, 0.05)
+    assert d.table_name() == "search" and from_table_name("search") == d
+    old = from_table_name("search-s0-u0-g0")  # the default before the bounds (issue 30)
+    assert old == SearchOptions(simulations=0, upper=0.0, gap=0.0)
+    assert old.table_name() == "search-s0-u0-g0"
+    planner = old.build()
+    assert (planner.simulations, planner.upper, planner.optimism, planner.gap) == (0, 0.0, 0.0,
+                                                                                   None)
+    assert make_planner("search", gap=0.0).gap is None  # 0: off, as the planner's None
+    assert make_planner("search", gap=None).gap == 0.05  # None: not given, the default
 
 
 def test_the_service_takes_the_declared_options_default_method_first():
