@@ -162,6 +162,41 @@ def test_max_value_is_the_dynamic_programme():
         assert max_value(graph, ones.__getitem__, problem.whole) == 1.0
 
 
+def test_kept_tables_give_what_a_fresh_dynamic_programme_gives():
+    # the search keeps its DP tables between rounds and drops those above changed scores
+    from rap.plan.bound_search import SearchScores, incumbent
+    from rap.plan.bounded_dp import dp_choice_bounded
+    rng = np.random.default_rng(8)
+    for name in ("triangles", "grid"):
+        problem = PlanningProblem(six(name), PARAMS)
+        graph = reachable(problem)
+        sc = SearchScores(problem, scorer(low(3)), covering(), 0.99, upper=0.5)
+        ops = [op for c in graph.values() for op in c]
+        for step in range(12):
+            if step == 9:
+                sc.lower()
+            for view, memo in (("of", sc.memo("of")), ("of", None), ("high", None)):
+                def listed(s, view=view):
+                    sc.predict(graph[s])
+                    return sc.scores(view, s, graph[s]) if memo else [
+                        getattr(sc, view)(op) for op in graph[s]]
+                if view == "high":
+                    fresh = max_value(graph, listed, problem.whole)
+                    assert max_value(graph, lambda s: sc.scores("high", s, graph[s]),
+                                     problem.whole, sc.memo("high")) == fresh
+                elif memo:
+                    kept = dp_choice_bounded(graph, listed, problem.whole, memo)
+                else:
+                    assert dp_choice_bounded(graph, listed, problem.whole) == kept
+            got = incumbent(graph, sc, problem.whole)
+            alone = dp_choice_bounded(graph, lambda s: [sc.simulated_or_0(op) for op in graph[s]],
+                                      problem.whole)
+            assert got[0] == alone[0] and (got[1] is None or got[1] == {
+                s: op for s, (_, op) in alone[1].items()})
+            sc.simulate([ops[i] for i in rng.choice(len(ops), 3, replace=False)] +
+                        [op for _, op in kept[1].values()][:2])
+
+
 def test_options_names_and_json():
     opts = from_table_name("search-s100-u100-c90-g10")
     assert (opts.simulations, opts.upper, opts.confidence, opts.gap) == (100, 1.0, 0.9, 0.1)
