@@ -48,7 +48,8 @@ only where it decides:
    trust) the choice's value is ``V`` and this is branch and bound: the search stops when the
    best fully simulated sequence (the *incumbent* ``I``) reaches ``V`` (nothing left can beat
    it). With ``gap`` (None or 0: off; any ``upper`` or optimism) ``V`` is computed each round
-   and the search stops once ``I >= (1 - gap) V`` (never with ``simulations`` 0: no incumbent). Otherwise it stops when the choice is settled or the
+   and the search stops once ``I >= (1 - gap) V``. With ``simulations`` 0, optimism, ``upper``
+   and ``gap`` change nothing (the plan is chosen by the model's scores alone). Otherwise it stops when the choice is settled or the
    budget spent (then the plan is chosen by what is known, as above); a stop by ``gap`` or ``V``
    returns the incumbent (``stats["stopped"]``: ``settled``, ``budget``, ``gap`` or ``bound``,
    ``stats["stopped_after"]`` the simulations spent). In beam mode ``V`` and the incumbent range
@@ -196,9 +197,11 @@ class SearchPlanner(Planner):
             return []
         if self.bounds is None:
             self.bounds = load()
+        raise_ = self.simulations > 0  # raised scores choose what to simulate: none to choose
         scores = SearchScores(problem, scorer, self.bounds,
-                              bonferroni(self.confidence, len(whole) - 1), self.optimism,
-                              self.upper, self.trust)
+                              bonferroni(self.confidence, len(whole) - 1),
+                              self.optimism if raise_ else 0.0, self.upper if raise_ else 0.0,
+                              self.trust)
         try:
             graph = reachable(problem, self.max_operations)
         except TooLarge:

@@ -197,6 +197,19 @@ def test_kept_tables_give_what_a_fresh_dynamic_programme_gives():
                         [op for _, op in kept[1].values()][:2])
 
 
+def test_without_simulations_upper_optimism_and_gap_change_nothing():
+    gen = pytest.importorskip("rap.geometry.generate")
+    beam = PlanningProblem(gen.random_tiling(10, np.random.default_rng(5)), PARAMS)
+    for problem, extra in ((PlanningProblem(six("triangles"), PARAMS), {}),
+                           (beam, dict(beam_width=3, max_operations=50))):
+        plain = SearchPlanner(bounds=covering(), **extra).solve(problem, scorer(low(1)))
+        for opts in (dict(upper=0.35, gap=0.05), dict(optimism=0.5, upper=1.0, gap=0.2)):
+            got = SearchPlanner(bounds=covering(), **extra, **opts).solve(problem,
+                                                                           scorer(low(1)))
+            assert tree(got) == tree(plain) and got.stats["search_simulations"] == 0
+            assert got.stats["predicted_operations"] == plain.stats["predicted_operations"]
+
+
 def test_options_names_and_json():
     opts = from_table_name("search-s100-u100-c90-g10")
     assert (opts.simulations, opts.upper, opts.confidence, opts.gap) == (100, 1.0, 0.9, 0.1)

@@ -101,6 +101,7 @@ def test_search_defaults_and_the_previous_default_round_trip():
     old = from_table_name("search-s0-u0-g0")  # the default before the bounds (issue 30)
     assert old == SearchOptions(simulations=0, upper=0.0, gap=0.0)
     assert old.table_name() == "search-s0-u0-g0"
+    assert from_table_name("search-s0").table_name() == "search-s0"  # the same plans (no sims)
     planner = old.build()
     assert (planner.simulations, planner.upper, planner.optimism, planner.gap) == (0, 0.0, 0.0,
                                                                                    None)
