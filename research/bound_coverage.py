@@ -37,15 +37,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import pickle
 import re
 import statistics
-import sys
 import time
 from pathlib import Path
 
 from research.validation_tables import (ROOT, LookupCnn, LookupSimulator, assemblies_of,
-                                        problem_of)
+                                        problem_of, saved_tables)
 
 BUDGETS = (5, 10, 20, 40, 80, 200)
 DEFAULT_SETTINGS = (["old", "s200-o10", "sim"]
@@ -232,12 +230,7 @@ def main() -> None:
     names = assemblies_of(a.set)
     if a.only:
         names = [n for n in names if n in a.only.split(",")]
-    path = a.cache / f"{a.set}.pkl"
-    tabs = pickle.loads(path.read_bytes()) if path.exists() else {}
-    missing = [n for n in names if n not in tabs]
-    if missing:
-        sys.exit(f"{path}: no tables for {', '.join(missing)}; run python -m "
-                 f"research.search_validation --set {a.set} --trust none first")
+    tabs = saved_tables(a.cache, a.set, names)
     if a.accuracy:
         accuracy(tabs, names)
         return

@@ -24,14 +24,14 @@ from __future__ import annotations
 import argparse
 import datetime
 import hashlib
-import pickle
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from rap.model.score_bounds import DEFAULT_BINS, DEFAULT_PATH, fit, min_count, save
-from research.validation_tables import ROOT, assemblies_of, model_of, problem_of
+from research.validation_tables import (ROOT, assemblies_of, model_of, problem_of,
+                                        saved_tables)
 
 LEVELS = (0.5, 0.9, 0.95, 0.99, 0.995, 0.999)
 
@@ -72,12 +72,7 @@ def main() -> None:
     ap.add_argument("--dry-run", action="store_true", help="print, write nothing")
     a = ap.parse_args()
     names = assemblies_of(a.set)
-    path = a.cache / f"{a.set}.pkl"
-    tabs = pickle.loads(path.read_bytes()) if path.exists() else {}
-    missing = [n for n in names if n not in tabs]
-    if missing:
-        sys.exit(f"{path}: no tables for {', '.join(missing)}; run python -m "
-                 f"research.search_validation --set {a.set} --trust none first")
+    tabs = saved_tables(a.cache, a.set, names)
     model = model_of(names[0])
     overlap = training_overlap(names, model)
     if overlap:

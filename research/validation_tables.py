@@ -138,6 +138,21 @@ def predictions(name: str, mirror: bool = False, model: Path | None = None,
                     map(float, getattr(cnn, what)(problem, ops))))
 
 
+def saved_tables(cache: Path, split: str, names: list[str]) -> dict:
+    """The score tables of ``names`` cached by ``research.search_validation --set split`` in
+    ``cache`` (name -> table); exits with one line naming the command when some are missing."""
+    import pickle
+    import sys
+
+    path = Path(cache) / f"{split}.pkl"
+    tabs = pickle.loads(path.read_bytes()) if path.exists() else {}
+    missing = [n for n in names if n not in tabs]
+    if missing:
+        sys.exit(f"{path}: no tables for {', '.join(missing)}; run python -m "
+                 f"research.search_validation --set {split} --trust none first")
+    return tabs
+
+
 def tables(name: str, dataset) -> dict:
     """{"pred": key -> expected score, "truth": key -> simulated score} for every operation."""
     import pyarrow.dataset as ds
