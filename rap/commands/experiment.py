@@ -83,6 +83,8 @@ def experiment_command(
             raise InputError(f"--assemblies {', '.join(map(str, assemblies))}: {n}.json is missing")
         files.append(found[0])
     asms = [load_assembly(f) for f in files]
+    from rap.commands._flags import flags
+
     with flags("base"):
         for a in asms:
             cell.check(a)
