@@ -193,3 +193,23 @@ def test_a_file_that_cannot_be_written_is_one_line_and_exit_3(run_cli, tmp_path,
     assert code == 3, err
     assert err.strip() == (f"rap-farm: error: {tmp_path / 'a.png'}: No space left on device "
                            "(nothing more was written)")
+
+
+CORPUS = str(ROOT / "datasets" / "corpus")
+
+
+@pytest.mark.parametrize("flags,line", [
+    (["--base", "nope"], "rap-farm: error: --base nope: no such part in hexagon (parts: hub, r0"),
+    (["--model", "nosuch.pt"], "rap-farm: error: --model nosuch.pt: no such checkpoint"),
+], ids=["base", "model"])
+def test_experiment_checks_its_input_in_the_command_body(run_cli, flags, line, tmp_path,
+                                                         monkeypatch):
+    """Past the parser: the command body reads the dataset and the assemblies, then refuses the
+    value in one line, exit 2, before any simulation worker starts (a NameError here once made
+    every experiment exit 4)."""
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_cli("experiment", CORPUS, "--only", "hexagon", "--assemblies",
+                             str(ROOT / "assemblies"), *flags)
+    assert (code, out) == (2, ""), err
+    assert err.startswith(line) and len(err.strip().splitlines()) == 1, err
+    assert not any(tmp_path.iterdir())

@@ -3,14 +3,16 @@
 ``BASE``, ``LINEAR``, ``DIRECTIONS``, ``GRAVITY``, ``FRICTION``, ``LAYERS``: the typer options
 (one home for their names and help; docs/PLANNING.md, "Robot-cell constraints");
 ``cell_constraints(...)`` reads them into a ``rap.plan.constraints.CellConstraints``, a bad value
-becoming one line naming its flag (exit 2).
+becoming one line naming its flag (exit 2); ``check_cell(cell, assemblies)`` checks them against
+the assemblies (``--base`` must name a part of each).
 """
 
 from __future__ import annotations
 
 import typer
 
-__all__ = ["BASE", "LINEAR", "DIRECTIONS", "GRAVITY", "FRICTION", "LAYERS", "cell_constraints"]
+__all__ = ["BASE", "LINEAR", "DIRECTIONS", "GRAVITY", "FRICTION", "LAYERS", "cell_constraints",
+           "check_cell"]
 
 BASE = typer.Option(None, "--base", help="Part fixed in the fixture from the start: it never "
                     "moves (every step's fixed side holds it).")
@@ -33,3 +35,13 @@ def cell_constraints(base, linear, directions, gravity, friction, layers):
 
     with flags("base", "linear", "directions", "gravity", "friction", "layers"):
         return CellConstraints.parse(base, linear, directions, gravity, friction, layers)
+
+
+def check_cell(cell, assemblies) -> None:
+    """``cell.check`` on each assembly (``--base`` names one of its parts); ``InputError`` naming
+    ``--base`` otherwise."""
+    from rap.commands._flags import flags
+
+    with flags("base"):
+        for asm in assemblies:
+            cell.check(asm)

@@ -16,7 +16,7 @@ from pathlib import Path
 import typer
 
 from rap.commands._cell_flags import (BASE, DIRECTIONS, FRICTION, GRAVITY, LAYERS, LINEAR,
-                                     cell_constraints)
+                                     cell_constraints, check_cell)
 
 __all__ = ["register", "experiment_command"]
 
@@ -83,11 +83,7 @@ def experiment_command(
             raise InputError(f"--assemblies {', '.join(map(str, assemblies))}: {n}.json is missing")
         files.append(found[0])
     asms = [load_assembly(f) for f in files]
-    from rap.commands._flags import flags
-
-    with flags("base"):
-        for a in asms:
-            cell.check(a)
+    check_cell(cell, asms)
     out = out or Path("reports") / Path(dataset).resolve().name
     if model is not None:
         if not Path(model).is_file():

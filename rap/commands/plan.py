@@ -30,7 +30,7 @@ from pathlib import Path
 import typer
 
 from rap.commands._cell_flags import (BASE, DIRECTIONS, FRICTION, GRAVITY, LAYERS, LINEAR,
-                                     cell_constraints)
+                                     cell_constraints, check_cell)
 from rap.commands._plan_output import print_result, write_outputs, write_plan_json
 from rap.errors import EXIT_INFEASIBLE, InputError, ParameterError, RapError
 from rap.plan.methods import (DEFAULT_METHOD, METHODS, RandomOptions, check_options,
@@ -173,7 +173,7 @@ def plan_command(
     with activity(f"planning {Path(assembly).name}", err) as progress:
         progress.update("reading the assembly")
         asm = load_assembly(assembly)
-        _check_cell(cell, asm)
+        check_cell(cell, [asm])
         t0 = time.perf_counter()
         if server is not None:
             result, on_ray = _plan_by_service(assembly, asm, method, seed, options, server,
@@ -185,14 +185,6 @@ def plan_command(
                                                 progress, err)
     _show(console, err, asm, result, time.perf_counter() - t0, out=out, picture=picture,
           server=server, on_ray=on_ray, cache_path=settings["cache"], csv=csv)
-
-
-def _check_cell(cell, asm) -> None:
-    """``--base`` must name a part of the assembly."""
-    from rap.commands._flags import flags
-
-    with flags("base"):
-        cell.check(asm)
 
 
 def _check_request(method: str, space: str, options: dict, out, picture, err) -> None:

@@ -31,7 +31,7 @@ numbers are rounded to 12 decimals (``tidy``): the motion's floats carry noise s
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Sequence
 
 from rap.assembly import Assembly, area_moments

@@ -26,7 +26,6 @@ pass stand-ins. ``rap.plan.experiment_report`` writes the report. No ray.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence

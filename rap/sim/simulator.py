@@ -34,7 +34,6 @@ Determinism: the result depends only on (geometry, operation, params, the rng's 
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 

@@ -6,7 +6,6 @@ subassembly travels along them to its place). All operations here are feasible b
 
 from __future__ import annotations
 
-import math
 from fractions import Fraction
 
 from rap.io import parse_assembly
