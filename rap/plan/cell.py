@@ -38,24 +38,21 @@ from rap.plan.result import interlocked_message, shrink_interlocked
 
 __all__ = ["constrained_candidates", "blocked_by", "constraint_stats", "reaim", "part_heights"]
 
-_HEIGHTS: dict = {}  # (geometry hash, gravity) -> part_heights' answer; a few assemblies at most
-
-
-def part_heights(assembly, gravity) -> dict[str, tuple[Fraction, Fraction]]:
+def part_heights(problem, gravity) -> dict[str, tuple[Fraction, Fraction]]:
     """part id -> (lowest, highest) height of its vertices along ``-gravity`` (exact rationals,
-    unnormalised: only comparisons matter). Part ``a`` lies wholly below ``b`` when
-    ``highest(a) <= lowest(b)``. O(vertices) once per (assembly, gravity), then memoised."""
-    key = (assembly.geometry_hash, tuple(Fraction(g) for g in gravity))
-    hit = _HEIGHTS.get(key)
+    unnormalised: only comparisons matter) in ``problem``'s assembly. Part ``a`` lies wholly below
+    ``b`` when ``highest(a) <= lowest(b)``. O(vertices) once per gravity, then memoised in
+    ``problem.cell_memo`` (it lives as long as the problem)."""
+    g = tuple(Fraction(v) for v in gravity)
+    key = ("heights", g)
+    hit = problem.cell_memo.get(key)
     if hit is None:
-        ux, uy = -key[1][0], -key[1][1]
+        ux, uy = -g[0], -g[1]
         hit = {}
-        for part in assembly.parts:
+        for part in problem.assembly.parts:
             h = [ux * x + uy * y for x, y in part.outer]
             hit[part.id] = (min(h), max(h))
-        if len(_HEIGHTS) >= 16:
-            _HEIGHTS.clear()
-        _HEIGHTS[key] = hit
+        problem.cell_memo[key] = hit
     return hit
 
 
@@ -113,7 +110,7 @@ def _search_order(problem, ops, c: CellConstraints):
     per step instead of one per operation."""
     if c.gravity is None:
         return ops
-    heights = part_heights(problem.assembly, c.gravity)
+    heights = part_heights(problem, c.gravity)
     return sorted(ops, key=lambda op: -max(heights[p][1] for p in op.moving))
 
 
@@ -147,7 +144,7 @@ def _apply_rules(problem, subset: frozenset, c: CellConstraints) -> tuple[Operat
     prefer = [primitive(exact_direction((-Fraction(x.axis[0]), -Fraction(x.axis[1]))))
               for x in c.directions]
     gh = problem.geometry_hash
-    heights = part_heights(problem.assembly, c.gravity) if c.layers else None
+    heights = part_heights(problem, c.gravity) if c.layers else None
     seen: dict[str, Operation] = {}
     for op, part in problem.splits(subset, c.one_part):
         if c.base is not None and c.base in subset and c.base not in op.fixed:
