@@ -81,6 +81,9 @@ def bound_lines(result) -> list[str]:
     elif st.get("stopped") == "bound":
         out.append(f"stopped after {n} simulations: no sequence left can beat this plan at the "
                    f"bounds' confidence")
+    elif st.get("stopped") == "budget" and "phase2_simulations" in st:
+        out.append(f"the budget ran out after {n} simulations, {st['phase2_simulations']} of "
+                   f"them after the choice settled, before --gap {st['gap']:g} was reached")
     return out
 
 

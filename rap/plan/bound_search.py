@@ -16,7 +16,8 @@ at a per-operation level (``rap.model.score_bounds``). Three views:
 * ``of(op)`` (what the search chooses by): simulated; else ``p`` when trusted (``p >= trust``);
   else ``max(p + optimism (1 - p), p + upper (u - p))``: the constant optimism of earlier releases
   and the bound's share ``upper`` in [0, 1], whichever is the larger (``upper = 0``: the constant
-  optimism alone, as before; ``upper = 1, optimism = 0``: the bound itself).
+  optimism alone, as before; ``upper = 1, optimism = 0``: the bound itself). ``lower()`` (choose
+  by ``known``) and ``by_bounds()`` (by ``high``) change it for the rest of a search.
 
 ``max_value(graph, scores_of, whole)``: ``max over sequences of the product of scores`` by branch
 and bound (no tie-breaking, so ties are pruned); ``incumbent(graph, scores, whole)``: the best
@@ -117,7 +118,15 @@ class SearchScores:
 
     def lower(self) -> None:
         """Choose by what is known from now on (the budget is spent)."""
-        self.optimism = self.upper = 0.0
+        self._choose(0.0, 0.0, self.trust)
+
+    def by_bounds(self) -> None:
+        """Choose by the upper bounds themselves from now on (``of`` is ``high`` for every
+        predicted operation: upper 1, no optimism, no trust), so the choice's value is ``V``."""
+        self._choose(0.0, 1.0, None)
+
+    def _choose(self, optimism: float, upper: float, trust: float | None) -> None:
+        self.optimism, self.upper, self.trust = optimism, upper, trust
         self._lists["of"].clear()
         for table in self._memo["of"]:
             table.clear()

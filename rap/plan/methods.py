@@ -165,9 +165,10 @@ class SearchOptions(PlannerOptions):
     gap: float = option(
         float, SEARCH_GAP, low=0.0, high=1.0, noun="a fraction", code="g", code_name="G",
         percent=True,
-        help="Method {method} with {simulations}: stop when the best simulated sequence is "
-             "within GAP of the bound on the optimum (0.05: 5%; 0: off, stop when the choice "
-             "is settled or the budget spent)")
+        help="Method {method} with {simulations}: simulate until the best simulated sequence "
+             "is within GAP of the bound on the optimum, going on by the bounds after the "
+             "choice is settled, or until the budget is spent (0.05: 5%; 0: off, stop when the "
+             "choice is settled or the budget spent)")
     beam_width: int = option(int, DEFAULT_BEAM, low=1, code="w", code_name="W",
                              help="Method {method}: beam width beyond the exact search's budget")
     max_operations: int = option(

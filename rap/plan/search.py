@@ -49,11 +49,27 @@ only where it decides:
    best fully simulated sequence (the *incumbent* ``I``) reaches ``V`` (nothing left can beat
    it). With ``gap`` (None or 0: off; any ``upper`` or optimism) ``V`` is computed each round
    and the search stops once ``I >= (1 - gap) V``. With ``simulations`` 0, optimism, ``upper``
-   and ``gap`` change nothing (the plan is chosen by the model's scores alone). Otherwise it stops when the choice is settled or the
-   budget spent (then the plan is chosen by what is known, as above); a stop by ``gap`` or ``V``
-   returns the incumbent (``stats["stopped"]``: ``settled``, ``budget``, ``gap`` or ``bound``,
-   ``stats["stopped_after"]`` the simulations spent). In beam mode ``V`` and the incumbent range
-   over the final beam's sequences only (reported as the bound's ``scope``: ``beam``).
+   and ``gap`` change nothing (the plan is chosen by the model's scores alone). Otherwise it
+   stops when the choice is settled or the budget spent (then the plan is chosen by what is
+   known, as above); a stop by ``gap`` or ``V`` returns the incumbent (``stats["stopped"]``:
+   ``settled``, ``budget``, ``gap`` or ``bound``, ``stats["stopped_after"]`` the simulations
+   spent). In beam mode ``V`` and the incumbent range over the final beam's sequences only
+   (reported as the bound's ``scope``: ``beam``).
+
+   **Phase 2: simulating until within the gap.** When the choice is settled (every operation
+   simulated or trusted) but ``gap`` is set, ``I < (1 - gap) V`` and budget remains, the search
+   goes on as branch and bound on the bounds themselves (``SearchScores.by_bounds``: upper 1,
+   no optimism, no trust): each round simulates ``bound_round`` of the unsimulated operations
+   of the sequence achieving ``V``, the most raised first, until ``I >= (1 - gap) V`` (stop
+   ``gap``), ``I >= V`` (``bound``: no sequence left can beat it) or the budget is spent
+   (``budget``). Its plan is always the incumbent, never chosen again from unsimulated
+   operations, or phase 1's settled choice where that is better by known scores (possible only
+   with trusted operations in it): phase 2 can only lower ``V`` or find a better fully
+   simulated plan, never return a worse one than phase 1's. ``stats``: ``phase1_simulations``,
+   ``phase2_simulations``, ``search_bound`` (``V`` when it stopped). The same in beam mode,
+   over the final beam's sequences. ``tighten=False``: no phase 2 (``gap`` only stops the
+   search earlier, as before phase 2 existed). With ``upper`` 1, no optimism and no trust,
+   phase 1 is this already.
 6. **A bound with every plan**: after the plan's steps are simulated for evaluation, ``V`` is
    computed again with those scores (so it is never below the plan's own robustness ``R``) and
    reported as ``PlanResult.bound``: ``{"robustness_upper": V, "confidence", "gap": 1 - R / V,
@@ -121,7 +137,8 @@ class SearchPlanner(Planner):
                  simulations: int = 0, trust: float | None = None, lazy: bool = True,
                  optimism: float = 0.0, upper: float = 0.0,
                  confidence: float = DEFAULT_CONFIDENCE, gap: float | None = None,
-                 bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND):
+                 bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND,
+                 tighten: bool = True):
         self.optimism = float(optimism)
         self.beam_width = int(beam_width)
         self.max_operations = int(max_operations)
@@ -133,6 +150,7 @@ class SearchPlanner(Planner):
         self.gap = float(gap) if gap else None  # 0: off, as None
         self.bounds = bounds
         self.bound_round = int(bound_round)
+        self.tighten = bool(tighten)  # False: no second phase (module doc, 5), as before it
 
     def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
         """``Planner.solve``, then the plan's bound (module doc, 6)."""
@@ -153,9 +171,9 @@ class SearchPlanner(Planner):
     def _to_simulate(self, scores: SearchScores, ops) -> list:
         """The operations of a chosen sequence still worth a simulation: not simulated, and not
         trusted (predicted score below ``trust``); with bounds, the most raised first."""
-        key = scores.key
+        key, trust = scores.key, scores.trust
         todo = [op for op in ops if key(op) not in scores.simulated
-                and (self.trust is None or scores.predicted[key(op)] < self.trust)]
+                and (trust is None or scores.predicted[key(op)] < trust)]
         if scores.upper:
             todo.sort(key=lambda op: -scores.of(op) / max(scores.known(op), 1e-300))
         return todo
@@ -169,7 +187,7 @@ class SearchPlanner(Planner):
 
     def _free_bound(self, scores: SearchScores) -> bool:
         """Whether the choosing scores are the upper bounds themselves (the DP's value is V)."""
-        return scores.upper == 1.0 and not scores.optimism and self.trust is None
+        return scores.upper == 1.0 and not scores.optimism and scores.trust is None
 
     def _watching(self, scores: SearchScores) -> bool:
         """Whether each round compares the incumbent with the bound: with ``gap``, or when the
@@ -190,6 +208,28 @@ class SearchPlanner(Planner):
             return False
         stats.update(search_bound=value, stopped_after=spent, predicted_robustness=best)
         return True
+
+    def _second_phase(self, scores: SearchScores, choice: dict, spent: int, stats: dict):
+        """When the choice is settled short of ``gap`` with budget left: phase 2 (module doc, 5)
+        starts, choosing by the bounds themselves; returns what it must never fall below (the
+        settled choice and its robustness by known scores), or None when it does not start."""
+        if not (self.tighten and self.gap is not None and spent < self.simulations):
+            return None
+        scores.by_bounds()
+        stats.update(phase1_simulations=spent, gap=self.gap)
+        return choice, math.prod(scores.known(op) for op in choice.values())
+
+    @staticmethod
+    def _kept(scores: SearchScores, plan: dict | None, floor: tuple, spent: int,
+              stats: dict) -> dict:
+        """Phase 2's plan: ``plan`` (the incumbent, fully simulated) unless phase 1's settled
+        choice (``floor``) is better by known scores (only when it has trusted operations)."""
+        r = 0.0 if plan is None else math.prod(scores.known(op) for op in plan.values())
+        if r < floor[1]:
+            plan, r = floor
+        stats.update(phase2_simulations=spent - stats["phase1_simulations"],
+                     predicted_robustness=r)
+        return plan
 
     def _search(self, problem, scorer, stats):
         whole = problem.whole
@@ -259,6 +299,7 @@ class SearchPlanner(Planner):
             return scores.scores("of", s, graph[s])
 
         spent = 0
+        floor = None  # phase 2 (module doc, 5): phase 1's settled choice and its robustness
         while True:
             best, tree = dp_choice_bounded(graph, scores_of, whole, scores.memo("of"))
             if best <= 0.0:
@@ -268,11 +309,17 @@ class SearchPlanner(Planner):
                 value = best if self._free_bound(scores) else self._max_high(graph, scores, whole)
                 got, tree_got = incumbent(graph, scores, whole)
                 if self._settled(got, value, spent, stats):
-                    return tree_got
+                    return tree_got if floor is None else self._kept(scores, tree_got, floor,
+                                                                     spent, stats)
             todo = self._to_simulate(scores, choice.values())
+            if floor is not None and (not todo or spent >= self.simulations):
+                stats.update(stopped="budget", search_bound=value, stopped_after=spent)
+                return self._kept(scores, tree_got, floor, spent, stats)
             if todo and spent >= self.simulations and scores.raised:
                 # budget spent with raised scores still in the choice: choose by what is known
                 scores.lower()
+                continue
+            if not todo and (floor := self._second_phase(scores, choice, spent, stats)):
                 continue
             if not todo or spent >= self.simulations:
                 stats["predicted_robustness"] = math.prod(scores.known(op)
@@ -318,6 +365,7 @@ class SearchPlanner(Planner):
         run.beam = [[op for _, op in st[3]] for st in beam]
         # simulations where they matter: re-rank the final sequences by mixed products
         spent = 0
+        floor = None  # phase 2, as in exact mode, over the final beam's sequences
         while True:
             ranked = sorted(beam, key=lambda st: (-sum(math.log(max(scores.of(op), 1e-300))
                                                        for _, op in st[3]), st[1]))
@@ -327,11 +375,18 @@ class SearchPlanner(Planner):
                 full = [st[3] for st in ranked if all(scores.is_simulated(op) for _, op in st[3])]
                 got = max((math.prod(scores.known(op) for _, op in seq), -i)
                           for i, seq in enumerate(full)) if full else (0.0, 0)
+                got_plan = dict(full[-got[1]]) if full else None
                 if self._settled(got[0], value, spent, stats):
-                    return dict(full[-got[1]])
+                    return got_plan if floor is None else self._kept(scores, got_plan, floor,
+                                                                     spent, stats)
             todo = self._to_simulate(scores, [op for _, op in top])
+            if floor is not None and (not todo or spent >= self.simulations):
+                stats.update(stopped="budget", search_bound=value, stopped_after=spent)
+                return self._kept(scores, got_plan, floor, spent, stats)
             if todo and spent >= self.simulations and scores.raised:
                 scores.lower()  # as in exact mode: the budget is spent, rank by what is known
+                continue
+            if not todo and (floor := self._second_phase(scores, dict(top), spent, stats)):
                 continue
             if not todo or spent >= self.simulations:
                 stats["predicted_robustness"] = math.prod(scores.known(op) for _, op in top)

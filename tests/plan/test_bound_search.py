@@ -1,6 +1,7 @@
 """Search with conformal bounds: the bound with a perfect scorer is the optimum, it never falls
 below a plan's own robustness, it covers the optimum when the bounds hold, --gap stops early and
-says so, and every plan passes the swept-area checker."""
+says so, a settled choice short of the gap goes on by the bounds (phase 2) and never comes back
+worse, and every plan passes the swept-area checker."""
 
 from __future__ import annotations
 
@@ -70,7 +71,9 @@ def test_a_perfect_scorer_bounds_at_the_optimum_and_reaches_it(name):
     problem = PlanningProblem(six(name), PARAMS)
     best = optimum(problem)
     for planner in (SearchPlanner(bounds=ScoreBounds.zero_width()),
-                    SearchPlanner(bounds=ScoreBounds.zero_width(), upper=1.0, simulations=1000)):
+                    SearchPlanner(bounds=ScoreBounds.zero_width(), upper=1.0, simulations=1000),
+                    SearchPlanner(bounds=ScoreBounds.zero_width(), upper=0.35, simulations=200,
+                                  gap=0.05)):
         found = planner.solve(problem, scorer())
         b = checked(problem, found)
         assert tree(found) == tree(best)
@@ -104,7 +107,10 @@ def test_the_bound_never_falls_below_the_plan_and_covers_the_optimum(seed):
         for options in (dict(), dict(simulations=int(rng.integers(1, 30)), upper=1.0),
                         dict(simulations=20, optimism=0.3, gap=0.1),
                         dict(simulations=15, upper=0.5, trust=0.9),
-                        dict(simulations=40, upper=1.0, gap=0.0)):
+                        dict(simulations=40, upper=1.0, gap=0.0),
+                        dict(simulations=60, upper=0.35, gap=0.05),
+                        dict(simulations=int(rng.integers(1, 40)), upper=0.35, trust=0.8,
+                             gap=0.1)):
             found = SearchPlanner(bounds=bounds, **options).solve(problem, scorer(low(seed)))
             b = checked(problem, found)
             assert found.robustness <= best.robustness * (1 + 1e-12)
@@ -243,3 +249,83 @@ def test_bounds_simulate_a_few_operations_a_round_most_raised_first():
         checked(problem, found)
         assert found.stats["search_simulations"] == 6 and found.stats["stopped"] == "budget"
         assert s.simulator.calls >= 6 // per_round  # rounds of at most per_round (+ evaluation)
+
+
+def p1_and_p2(problem, model, **options):
+    """The same search without and with phase 2 (module doc of ``rap.plan.search``, 5)."""
+    return [SearchPlanner(bounds=covering(), tighten=t, **options).solve(problem, scorer(model))
+            for t in (False, True)]
+
+
+def test_a_settled_choice_short_of_the_gap_goes_on_until_within_it_and_says_so():
+    problem = PlanningProblem(six("mixed-square"), PARAMS)
+    best = optimum(problem)
+    p1, p2 = p1_and_p2(problem, low(1), upper=0.0, simulations=400, gap=0.05)
+    for r in (p1, p2):
+        checked(problem, r)
+    # phase 1 alone: the model's choice, simulated, settles far from the bound
+    assert p1.stats["stopped"] == "settled" and p1.bound["gap"] > 0.05
+    assert "phase2_simulations" not in p1.stats
+    # phase 2: the same phase 1, then simulations by the bounds until within the gap
+    n1, n2 = p2.stats["phase1_simulations"], p2.stats["phase2_simulations"]
+    assert n1 == p1.stats["search_simulations"] and n2 > 0
+    assert p2.stats["stopped"] == "gap" and p2.stats["gap"] == 0.05
+    assert p2.stats["stopped_after"] == n1 + n2 == p2.stats["search_simulations"]
+    assert p2.robustness >= (1 - 0.05) * p2.stats["search_bound"]
+    assert p2.bound["gap"] <= 0.05 + 1e-12 and p2.robustness > p1.robustness
+    assert p2.robustness >= 0.95 * best.robustness  # the bounds hold: within the gap of it
+    assert p2.stats["predicted_robustness"] == pytest.approx(p2.robustness, rel=1e-12)
+    assert bound_lines(p2)[1] == f"stopped at --gap 0.05 after {n1 + n2} simulations"
+    # the budget spent first: the best fully simulated sequence, and the table says so
+    short = SearchPlanner(bounds=covering(), upper=0.0, simulations=n1 + 3, gap=0.05).solve(
+        problem, scorer(low(1)))
+    checked(problem, short)
+    assert short.stats["stopped"] == "budget" and short.stats["phase2_simulations"] == 3
+    assert short.robustness >= p1.robustness
+    assert bound_lines(short)[1] == (f"the budget ran out after {n1 + 3} simulations, 3 of them "
+                                     f"after the choice settled, before --gap 0.05 was reached")
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_phase_two_never_returns_a_worse_plan_than_the_settled_choice(name):
+    problem = PlanningProblem(six(name), PARAMS)
+    ran = 0
+    for seed in range(3):
+        for options in (dict(upper=0.0), dict(upper=0.35), dict(upper=0.35, trust=0.8)):
+            for budget in (12, 400):
+                p1, p2 = p1_and_p2(problem, low(seed), simulations=budget, gap=0.05, **options)
+                checked(problem, p2)
+                if "phase2_simulations" not in p2.stats:  # phase 1 reached the gap or the budget
+                    assert tree(p2) == tree(p1) and all(p2.stats[k] == p1.stats[k] for k in (
+                        "stopped", "search_simulations", "predicted_robustness"))
+                    continue
+                ran += 1
+                assert p2.stats["phase1_simulations"] == p1.stats["search_simulations"]
+                # by what is known of each plan: the settled choice's known robustness at least
+                assert p2.stats["predicted_robustness"] >= p1.stats["predicted_robustness"]
+                if "trust" not in options:  # both fully simulated: their robustness too
+                    assert p2.robustness >= p1.robustness
+    assert ran >= 9
+
+
+def test_phase_two_keeps_the_settled_choice_when_nothing_better_is_simulated():
+    # everything trusted: phase 1 settles at once with nothing simulated; two simulations
+    # cannot complete a sequence, so the settled choice is kept
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    p1, p2 = p1_and_p2(problem, low(2), trust=0.01, simulations=2, gap=0.05)
+    checked(problem, p2)
+    assert p1.stats["search_simulations"] == 0 and p1.stats["stopped"] == "settled"
+    assert p2.stats["stopped"] == "budget" and p2.stats["phase2_simulations"] == 2
+    assert tree(p2) == tree(p1)
+
+
+def test_beam_phase_two_over_the_final_beam():
+    gen = pytest.importorskip("rap.geometry.generate")
+    problem = PlanningProblem(gen.random_tiling(10, np.random.default_rng(6)), PARAMS)
+    p1, p2 = p1_and_p2(problem, low(0), beam_width=3, max_operations=50, upper=0.35,
+                       simulations=60, gap=0.05)
+    b = checked(problem, p2)
+    assert p2.stats["search"] == "beam" and b["scope"] == "beam"
+    assert p1.stats["stopped"] == "settled" and p1.bound["gap"] > 0.05
+    assert p2.stats["phase2_simulations"] > 0 and p2.stats["stopped"] in ("gap", "bound")
+    assert p2.robustness >= p1.robustness and b["gap"] <= 0.05 + 1e-12
