@@ -37,6 +37,7 @@ from rap.model.score_bounds import ScoreBounds, bonferroni
 from rap.plan.bounded_dp import dp_choice_bounded
 from rap.plan.graph import Graph
 from rap.plan.problem import PlanningProblem
+from rap.plan.score_correction import ScoreCorrection
 from rap.plan.scorers import Scorer
 
 __all__ = ["SearchScores", "max_value", "incumbent", "report", "bonferroni"]
@@ -54,6 +55,7 @@ class SearchScores:
     optimism: float = 0.0
     upper: float = 0.0
     trust: float | None = None
+    correction: ScoreCorrection | None = None
     predicted: dict = field(default_factory=dict)
     bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
     simulated: dict = field(default_factory=dict)
@@ -118,8 +120,12 @@ class SearchScores:
     def lower(self) -> None:
         """Choose by what is known from now on (the budget is spent)."""
         self.optimism = self.upper = 0.0
-        self._lists["of"].clear()
-        for table in self._memo["of"]:
+        self._forget("of")
+
+    def _forget(self, view: str) -> None:
+        """Drop every memoised score list and table of ``view``."""
+        self._lists[view].clear()
+        for table in self._memo[view]:
             table.clear()
 
     def predict(self, ops) -> None:
@@ -147,8 +153,8 @@ class SearchScores:
             return self.simulated[k]
         p = self.predicted[k]
         if self.trust is not None and p >= self.trust:
-            return p
-        out = p
+            return self._corrected(p)
+        p = out = self._corrected(p)
         if self.optimism:
             out = p + self.optimism * (1.0 - p)
         if self.upper:
@@ -156,9 +162,12 @@ class SearchScores:
         return out
 
     def known(self, op) -> float:
-        """Simulated, else predicted."""
+        """Simulated, else predicted (corrected, with a correction)."""
         k = self.key(op)
-        return self.simulated[k] if k in self.simulated else self.predicted[k]
+        return self.simulated[k] if k in self.simulated else self._corrected(self.predicted[k])
+
+    def _corrected(self, p: float) -> float:
+        return p if self.correction is None else self.correction(p)
 
     def high(self, op) -> float:
         """Simulated, else the upper bound (1 for an operation not predicted)."""
@@ -171,9 +180,15 @@ class SearchScores:
     def simulate(self, ops) -> None:
         """Simulate the operations not simulated yet (one batch)."""
         ops = [op for op in ops if self.key(op) not in self.simulated]
+        shift = None if self.correction is None else self.correction.shift
         for op, sc in zip(ops, self.scorer.scores(self.problem, ops)):
-            self.simulated[self.key(op)] = float(sc)
+            k = self.key(op)
+            self.simulated[k] = float(sc)
+            if shift is not None and k in self.predicted:
+                self.correction.add(self.predicted[k], float(sc))
         self._changed(ops)
+        if shift is not None and self.correction.shift != shift:
+            self._forget("of")  # every unsimulated operation's ``of`` moved
 
     def add_simulated(self, ops, scores) -> None:
         """Scores simulated elsewhere (a plan's evaluation)."""

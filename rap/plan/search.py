@@ -54,6 +54,10 @@ only where it decides:
    returns the incumbent (``stats["stopped"]``: ``settled``, ``budget``, ``gap`` or ``bound``,
    ``stats["stopped_after"]`` the simulations spent). In beam mode ``V`` and the incumbent range
    over the final beam's sequences only (reported as the bound's ``scope``: ``beam``).
+   With ``adapt`` ``k`` (None: off) the model's scores are corrected per assembly while the
+   search runs, by a logit shift fitted on the operations it has simulated, shrunk with prior
+   strength ``k`` (``rap.plan.score_correction``): ``known`` and the choosing scores use the
+   corrected ``p``, the bounds (and ``V``) do not.
 6. **A bound with every plan**: after the plan's steps are simulated for evaluation, ``V`` is
    computed again with those scores (so it is never below the plan's own robustness ``R``) and
    reported as ``PlanResult.bound``: ``{"robustness_upper": V, "confidence", "gap": 1 - R / V,
@@ -84,6 +88,7 @@ from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reac
 from rap.plan.planners import Planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanResult, PlanStep
+from rap.plan.score_correction import ScoreCorrection
 from rap.plan.scorers import Scorer
 
 __all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE",
@@ -121,7 +126,8 @@ class SearchPlanner(Planner):
                  simulations: int = 0, trust: float | None = None, lazy: bool = True,
                  optimism: float = 0.0, upper: float = 0.0,
                  confidence: float = DEFAULT_CONFIDENCE, gap: float | None = None,
-                 bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND):
+                 bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND,
+                 adapt: float | None = None):
         self.optimism = float(optimism)
         self.beam_width = int(beam_width)
         self.max_operations = int(max_operations)
@@ -133,6 +139,7 @@ class SearchPlanner(Planner):
         self.gap = float(gap) if gap else None  # 0: off, as None
         self.bounds = bounds
         self.bound_round = int(bound_round)
+        self.adapt = None if adapt is None else float(adapt)  # the correction's prior; None: off
 
     def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
         """``Planner.solve``, then the plan's bound (module doc, 6)."""
@@ -201,7 +208,8 @@ class SearchPlanner(Planner):
         scores = SearchScores(problem, scorer, self.bounds,
                               bonferroni(self.confidence, len(whole) - 1),
                               self.optimism if raise_ else 0.0, self.upper if raise_ else 0.0,
-                              self.trust)
+                              self.trust, None if self.adapt is None or not raise_
+                              else ScoreCorrection(self.adapt))
         try:
             graph = reachable(problem, self.max_operations)
         except TooLarge:
