@@ -180,15 +180,16 @@ class SearchScores:
     def simulate(self, ops) -> None:
         """Simulate the operations not simulated yet (one batch)."""
         ops = [op for op in ops if self.key(op) not in self.simulated]
-        shift = None if self.correction is None else self.correction.shift
+        refit = False
         for op, sc in zip(ops, self.scorer.scores(self.problem, ops)):
             k = self.key(op)
             self.simulated[k] = float(sc)
-            if shift is not None and k in self.predicted:
+            if self.correction is not None and k in self.predicted:
                 self.correction.add(self.predicted[k], float(sc))
+                refit = True
         self._changed(ops)
-        if shift is not None and self.correction.shift != shift:
-            self._forget("of")  # every unsimulated operation's ``of`` moved
+        if refit:
+            self._forget("of")  # the unsimulated operations' ``of`` moved
 
     def add_simulated(self, ops, scores) -> None:
         """Scores simulated elsewhere (a plan's evaluation)."""

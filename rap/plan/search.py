@@ -55,9 +55,9 @@ only where it decides:
    ``stats["stopped_after"]`` the simulations spent). In beam mode ``V`` and the incumbent range
    over the final beam's sequences only (reported as the bound's ``scope``: ``beam``).
    With ``adapt`` ``k`` (None: off) the model's scores are corrected per assembly while the
-   search runs, by a logit shift fitted on the operations it has simulated, shrunk with prior
-   strength ``k`` (``rap.plan.score_correction``): ``known`` and the choosing scores use the
-   corrected ``p``, the bounds (and ``V``) do not.
+   search runs, by logit shifts per bin of ``p`` fitted on the operations it has simulated,
+   shrunk with prior strength ``k`` (``rap.plan.score_correction``): ``known`` and the
+   choosing scores use the corrected ``p``, the bounds (and ``V``) do not.
 6. **A bound with every plan**: after the plan's steps are simulated for evaluation, ``V`` is
    computed again with those scores (so it is never below the plan's own robustness ``R``) and
    reported as ``PlanResult.bound``: ``{"robustness_upper": V, "confidence", "gap": 1 - R / V,
