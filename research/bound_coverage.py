@@ -22,12 +22,13 @@ Settings (``--settings``, comma-separated names; default: all below):
 
 * ``old``: search as shipped before the bounds (no simulations); ``s200-o10``: ``--simulations
   200 --optimism 0.1``; ``sim``: simulator-only greedy;
-* ``bN-cC[-gG][-tT][-uU][-oO][-p1]``: bound-driven search, ``--simulations N --upper U/100
+* ``bN-cC[-gG][-tT][-uU][-oO][-aK][-p1]``: bound-driven search, ``--simulations N --upper U/100
   (default 1) --confidence C/100 [--gap G/100] [--trust T/100] [--optimism O/100]``, e.g.
   ``b40-c95-g5``; ``b200-c95-u0-o10`` is ``s200-o10``. With a gap the search goes on after its
   choice settles, by the bounds, until within the gap (``rap.plan.search``, phase 2); ``-p1``:
   phase 1 only, the gap only stopping it earlier (what every gap setting meant before phase 2,
-  e.g. ``b200-c95-g5-u35-p1``, the default's numbers before it).
+  e.g. ``b200-c95-g5-u35-p1``, the default's numbers before it). ``-aK``: the per-assembly
+  score correction (``rap.plan.score_correction``) with prior strength K.
 
 The bounds are ``--bounds`` (default the shipped ``rap/data/score_bounds.json``, fitted on the
 ``fresh`` set by ``research.score_bounds_calibration``: its coverage on ``fresh`` is in-sample,
@@ -53,7 +54,8 @@ DEFAULT_SETTINGS = (["old", "s200-o10", "sim"]
                     + [f"b{n}-c{c}{g}" for c in (90, 95) for g in ("", "-g5", "-g10")
                        for n in BUDGETS]
                     + [f"b{n}-c95-t97" for n in BUDGETS] + [f"b{n}-c95-u50" for n in BUDGETS])
-_BOUND = re.compile(r"^b(\d+)-c(\d+)(?:-g(\d+))?(?:-t(\d+))?(?:-u(\d+))?(?:-o(\d+))?(-p1)?$")
+_BOUND = re.compile(r"^b(\d+)-c(\d+)(?:-g(\d+))?(?:-t(\d+))?(?:-u(\d+))?(?:-o(\d+))?"
+                    r"(?:-a(\d+))?(-p1)?$")
 
 
 def planner_of(setting: str, bounds):
@@ -70,14 +72,14 @@ def planner_of(setting: str, bounds):
     m = _BOUND.match(setting)
     if m is None:
         raise ValueError(f"setting {setting!r}: old, s200-o10, sim or "
-                         f"bN-cC[-gG][-tT][-uU][-oO][-p1]")
-    n, c, g, t, u, o, p1 = m.groups()
+                         f"bN-cC[-gG][-tT][-uU][-oO][-aK][-p1]")
+    n, c, g, t, u, o, a, p1 = m.groups()
     return SearchPlanner(simulations=int(n), confidence=int(c) / 100,
                          gap=None if g is None else int(g) / 100,
                          trust=None if t is None else int(t) / 100,
                          upper=1.0 if u is None else int(u) / 100,
                          optimism=0.0 if o is None else int(o) / 100, bounds=bounds,
-                         tighten=p1 is None)
+                         tighten=p1 is None, adapt=None if a is None else float(a))
 
 
 def optimum(problem, graph, truth) -> float:

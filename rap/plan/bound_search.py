@@ -38,6 +38,7 @@ from rap.model.score_bounds import ScoreBounds, bonferroni
 from rap.plan.bounded_dp import dp_choice_bounded
 from rap.plan.graph import Graph
 from rap.plan.problem import PlanningProblem
+from rap.plan.score_correction import ScoreCorrection
 from rap.plan.scorers import Scorer
 
 __all__ = ["SearchScores", "max_value", "incumbent", "report", "bonferroni"]
@@ -55,6 +56,7 @@ class SearchScores:
     optimism: float = 0.0
     upper: float = 0.0
     trust: float | None = None
+    correction: ScoreCorrection | None = None
     predicted: dict = field(default_factory=dict)
     bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
     simulated: dict = field(default_factory=dict)
@@ -127,8 +129,12 @@ class SearchScores:
 
     def _choose(self, optimism: float, upper: float, trust: float | None) -> None:
         self.optimism, self.upper, self.trust = optimism, upper, trust
-        self._lists["of"].clear()
-        for table in self._memo["of"]:
+        self._forget("of")
+
+    def _forget(self, view: str) -> None:
+        """Drop every memoised score list and table of ``view``."""
+        self._lists[view].clear()
+        for table in self._memo[view]:
             table.clear()
 
     def predict(self, ops) -> None:
@@ -156,8 +162,8 @@ class SearchScores:
             return self.simulated[k]
         p = self.predicted[k]
         if self.trust is not None and p >= self.trust:
-            return p
-        out = p
+            return self._corrected(p)
+        p = out = self._corrected(p)
         if self.optimism:
             out = p + self.optimism * (1.0 - p)
         if self.upper:
@@ -165,9 +171,12 @@ class SearchScores:
         return out
 
     def known(self, op) -> float:
-        """Simulated, else predicted."""
+        """Simulated, else predicted (corrected, with a correction)."""
         k = self.key(op)
-        return self.simulated[k] if k in self.simulated else self.predicted[k]
+        return self.simulated[k] if k in self.simulated else self._corrected(self.predicted[k])
+
+    def _corrected(self, p: float) -> float:
+        return p if self.correction is None else self.correction(p)
 
     def high(self, op) -> float:
         """Simulated, else the upper bound (1 for an operation not predicted)."""
@@ -180,9 +189,16 @@ class SearchScores:
     def simulate(self, ops) -> None:
         """Simulate the operations not simulated yet (one batch)."""
         ops = [op for op in ops if self.key(op) not in self.simulated]
+        refit = False
         for op, sc in zip(ops, self.scorer.scores(self.problem, ops)):
-            self.simulated[self.key(op)] = float(sc)
+            k = self.key(op)
+            self.simulated[k] = float(sc)
+            if self.correction is not None and k in self.predicted:
+                self.correction.add(self.predicted[k], float(sc))
+                refit = True
         self._changed(ops)
+        if refit:
+            self._forget("of")  # the unsimulated operations' ``of`` moved
 
     def add_simulated(self, ops, scores) -> None:
         """Scores simulated elsewhere (a plan's evaluation)."""

@@ -70,6 +70,10 @@ only where it decides:
    over the final beam's sequences. ``tighten=False``: no phase 2 (``gap`` only stops the
    search earlier, as before phase 2 existed). With ``upper`` 1, no optimism and no trust,
    phase 1 is this already.
+   With ``adapt`` ``k`` (None: off) the model's scores are corrected per assembly while the
+   search runs, by logit shifts per bin of ``p`` fitted on the operations it has simulated,
+   shrunk with prior strength ``k`` (``rap.plan.score_correction``): ``known`` and the
+   choosing scores use the corrected ``p``, the bounds (and ``V``) do not.
 6. **A bound with every plan**: after the plan's steps are simulated for evaluation, ``V`` is
    computed again with those scores (so it is never below the plan's own robustness ``R``) and
    reported as ``PlanResult.bound``: ``{"robustness_upper": V, "confidence", "gap": 1 - R / V,
@@ -100,6 +104,7 @@ from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reac
 from rap.plan.planners import Planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanResult, PlanStep
+from rap.plan.score_correction import ScoreCorrection
 from rap.plan.scorers import Scorer
 
 __all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE",
@@ -138,7 +143,7 @@ class SearchPlanner(Planner):
                  optimism: float = 0.0, upper: float = 0.0,
                  confidence: float = DEFAULT_CONFIDENCE, gap: float | None = None,
                  bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND,
-                 tighten: bool = True):
+                 tighten: bool = True, adapt: float | None = None):
         self.optimism = float(optimism)
         self.beam_width = int(beam_width)
         self.max_operations = int(max_operations)
@@ -151,6 +156,7 @@ class SearchPlanner(Planner):
         self.bounds = bounds
         self.bound_round = int(bound_round)
         self.tighten = bool(tighten)  # False: no second phase (module doc, 5), as before it
+        self.adapt = None if adapt is None else float(adapt)  # the correction's prior; None: off
 
     def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
         """``Planner.solve``, then the plan's bound (module doc, 6)."""
@@ -241,7 +247,8 @@ class SearchPlanner(Planner):
         scores = SearchScores(problem, scorer, self.bounds,
                               bonferroni(self.confidence, len(whole) - 1),
                               self.optimism if raise_ else 0.0, self.upper if raise_ else 0.0,
-                              self.trust)
+                              self.trust, None if self.adapt is None or not raise_
+                              else ScoreCorrection(self.adapt))
         try:
             graph = reachable(problem, self.max_operations)
         except TooLarge:
