@@ -39,6 +39,7 @@ from pathlib import Path
 from rap.assembly import LIMITS, Assembly, AssemblyError, json_error_reason
 from rap.io import load_assembly, parse_assembly
 from rap.errors import InputError, ParameterError
+from rap.plan.cell_help import CELL_HELP
 from rap.plan.constraints import CellConstraints
 from rap.plan.methods import DEFAULT_METHOD, METHODS, service_options
 from rap.seeds import DEFAULT_ROOT_SEED
@@ -278,14 +279,14 @@ PLAN_BODY_OPENAPI = {
                     "--linear, --directions, --gravity, --friction, --layers, e.g. {\"base\": \"plate\", "
                     "\"linear\": true, \"directions\": [\"0,-1:30\"], \"gravity\": \"0,-1\"}",
                     "properties": {
-                        "base": {"type": "string", "description": "Part fixed in the fixture"},
-                        "linear": {"type": "boolean", "description": "One part per step"},
+                        "base": {"type": "string", "description": CELL_HELP["base"]},
+                        "linear": {"type": "boolean", "description": CELL_HELP["linear"]},
                         "directions": {"type": "array", "items": {"type": "string"},
-                                       "description": "Insertion cones DX,DY:DEG"},
-                        "gravity": {"type": "string", "description": "DX,DY; needs base"},
-                        "friction": {"type": "number", "minimum": 0, "default": 0.5},
-                        "layers": {"type": "boolean", "description": "In layers against "
-                                   "gravity; needs gravity"}}}}}}},
+                                       "description": CELL_HELP["directions"]},
+                        "gravity": {"type": "string", "description": CELL_HELP["gravity"]},
+                        "friction": {"type": "number", "minimum": 0, "default": 0.5,
+                                     "description": CELL_HELP["friction"]},
+                        "layers": {"type": "boolean", "description": CELL_HELP["layers"]}}}}}}},
     },
     "responses": {"200": {"description": "The plan (the `rap-farm plan --out` document: units, "
                                          "R and its interval, steps with insertion, score "

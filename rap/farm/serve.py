@@ -12,8 +12,9 @@ offline):
 
 * ``GET /``: the planning page (``rap/farm/static``: plain HTML, CSS and JS, no build step, no
   other host): choose or drop a drawing or assembly file, see its parts and NDBG circle, plan with
-  a method and seed through ``POST /plan``, step through the plan as a storyboard, download the
-  plan JSON and the storyboard (PNG or SVG). Its requests carry the token typed in the page.
+  a method, a seed and optionally the robot cell's constraints through ``POST /plan``, step
+  through the plan as a storyboard, download the plan JSON and the storyboard (PNG or SVG). Its
+  requests carry the token typed in the page.
 * ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
   actor has started (before that, Serve answers 503 or the connection is refused).
 * ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|

@@ -373,3 +373,104 @@ def test_the_page_plans_a_dxf_drawing_as_the_api_does(page, service, tmp_path):
     page.screenshot(path=str(tmp_path / "page-dxf.png"), full_page=True)
     if os.environ.get("RAP_PAGE_SCREENSHOT"):  # the README's picture
         page.screenshot(path=os.environ["RAP_PAGE_SCREENSHOT"], full_page=True)
+
+
+# -- the robot cell (POST /plan's "constraints") ---------------------------------------------------
+
+CELLS = ROOT / "assemblies" / "cells"
+
+
+def _inspect(pg, url: str, path: Path, method: str = "sim", seed: int = 3) -> None:
+    """Open the page, choose method and seed, and read ``path`` without planning it; the robot
+    cell's fieldset shows once it is read."""
+    open_page(pg, url)
+    assert pg.is_hidden("#cell")
+    pg.select_option("#method", method)
+    pg.fill("#seed", str(seed))
+    pg.uncheck("#auto-plan")
+    pg.set_input_files("#file", str(path))
+    assert _wait(pg, "inspected", "error") == "inspected", pg.inner_text("#message")
+
+
+def _plan_sent(pg) -> tuple[str, dict]:
+    """Click Plan; (the state the page ends in, the body of the POST /plan it sent)."""
+    with pg.expect_request(lambda r: r.url.endswith("/plan") and r.method == "POST") as sent:
+        pg.click("#plan")
+    return _wait(pg, "planned", "error"), json.loads(sent.value.post_data)
+
+
+def _within_30(insertion, axis) -> bool:  # as tests/plan/test_constraints.py: 3 cross^2 <= dot^2
+    dot = insertion[0] * axis[0] + insertion[1] * axis[1]
+    cross = axis[0] * insertion[1] - axis[1] * insertion[0]
+    return dot > 0 and 3 * cross * cross <= dot * dot
+
+
+def test_a_plain_plan_sends_no_constraints_and_the_cell_has_the_cli_help(page, service):
+    from rap.plan.cell_help import CELL_HELP
+
+    _inspect(page, service, CELLS / "side-peg.json")
+    assert page.is_visible("#cell")
+    options = page.eval_on_selector_all("#cell-base option", "os => os.map(o => [o.value, "
+                                        "o.textContent])")
+    assert options == [["", "none"], ["base", "base"], ["peg", "peg"]]
+    assert page.get_attribute("#cell-friction", "placeholder") == "0.5"  # the service's default
+    for key, text in CELL_HELP.items():  # the CLI's --base ... --layers help, from the schema
+        assert page.get_attribute(f"#cell label[data-help={key}]", "title").startswith(text)
+    state, body = _plan_sent(page)
+    assert state == "planned" and "constraints" not in body
+    assert set(body) == {"assembly", "method", "seed"}
+    assert "robot cell" not in page.inner_text("#plan-status")
+
+
+def test_a_cell_that_admits_no_plan_is_one_line_and_no_storyboard(page, service):
+    """side-peg's peg enters only from the right: a cone around straight down admits no plan
+    (tests/plan/test_constraints.py); the service's line names the flag that blocks it."""
+    _inspect(page, service, CELLS / "side-peg.json")
+    page.select_option("#cell-base", "base")
+    page.fill("#cell-directions", "0,-1:30")
+    state, body = _plan_sent(page)
+    assert body["constraints"] == {"base": "base", "directions": ["0,-1:30"]}
+    assert state == "planned" and page.is_hidden("#story-section") and page.is_hidden("#message")
+    status = page.inner_text("#plan-status")
+    assert status.startswith("sim: no sequence satisfies the cell's constraints: the subassembly "
+                             "{base,peg} cannot be built: every way to split it breaks "
+                             "--directions 0,-1:30 (no insertion direction within 30° of (0,-1))")
+    assert "\n" not in status
+    # a constraint the service refuses: its 400 line, as it is
+    page.select_option("#cell-base", "")
+    page.fill("#cell-directions", "")
+    page.fill("#cell-gravity", "0,-1")
+    state, body = _plan_sent(page)
+    assert body["constraints"] == {"gravity": "0,-1"} and state == "error"
+    assert page.inner_text("#message").startswith("constraints.gravity 0,-1: needs a base part")
+
+
+def test_a_plan_in_the_cell_obeys_it_and_says_so(page, service, tmp_path):
+    """stack.json with its plate in the fixture, one arm, insertion from above: every step moves
+    one block onto an assembly holding the plate, within 30 degrees of straight down; the plan
+    is the API's for the same request, and the storyboard and status line name the cell."""
+    _inspect(page, service, CELLS / "stack.json")
+    page.select_option("#cell-base", "plate")
+    page.check("#cell-linear")
+    page.fill("#cell-directions", " 0, -1 : 30 ")
+    state, body = _plan_sent(page)
+    assert state == "planned", page.inner_text("#message")
+    cell = {"base": "plate", "linear": True, "directions": ["0,-1:30"]}
+    assert body["constraints"] == cell
+    doc = json.loads(_download(page, "#dl-json", tmp_path / "cell-plan.json").read_text())
+    assert doc["feasible"] is True and len(doc["steps"]) == 3
+    assert doc["constraints"] == {**cell, "gravity": None, "friction": 0.5, "layers": False}
+    for st in doc["steps"]:
+        assert len(st["moving"]) == 1 and "plate" in st["fixed"]
+        assert _within_30(st["insertion"], (0, -1)), st
+    assert check_plan(load_assembly(CELLS / "stack.json"), PlanResult.from_json(doc).steps) == []
+    status, api_doc, _ = _call(service, "/plan", json.dumps(body).encode())
+    assert status == 200 and _same_plan(doc, api_doc)
+    assert _shown_steps(page) == doc["steps"]
+    assert ("(robot cell: plate fixed in the fixture, one part per step, insertion within 30° of "
+            "(0,-1))") in page.inner_text("#plan-status")
+    assert "without gravity" in page.get_attribute("#plan-status", "title")  # the score note
+    page.screenshot(path=str(tmp_path / "page-cell.png"), full_page=True)
+    svg = ET.parse(_download(page, "#dl-svg", tmp_path / "cell-storyboard.svg")).getroot()
+    texts = ["".join(t.itertext()) for t in svg.findall("{http://www.w3.org/2000/svg}text")]
+    assert "robot cell: plate fixed in the fixture, one part per step" in texts[1]

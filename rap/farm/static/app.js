@@ -7,7 +7,11 @@
 // JSON API's POST /plan with the chosen method and seed, and the answer (the `rap-farm plan --out`
 // document) becomes a storyboard: each step's fixed parts in place, its moving parts drawn back
 // along the insertion direction and in place, the direction, the score and its source. The plan
-// JSON and the storyboard (PNG through a canvas, or SVG) can be downloaded. Every request carries
+// JSON and the storyboard (PNG through a canvas, or SVG) can be downloaded. The "Robot cell"
+// fieldset (shown once a file is read) sets the request's "constraints" (base part, one arm,
+// insertion cones, gravity, friction, layers: rap.plan.constraints; tooltips from the API's own
+// schema, the CLI's help); they are sent only when one is set, and a plan that no sequence under
+// them admits is the service's one line in the status line. Every request carries
 // the token typed in the header (kept in sessionStorage) as "Authorization: Bearer <token>".
 // body[data-state] says where the page is: idle, reading, inspected, planning, planned, error.
 "use strict";
@@ -81,6 +85,74 @@
     }
     select.value = props.method.enum.includes(chosen) ? chosen : props.method.default;
     if (!$("seed").value) $("seed").value = String(props.seed.default);
+    const cell = props.constraints.properties; // the CLI's help texts (rap.plan.cell_help)
+    for (const label of document.querySelectorAll("#cell label[data-help]")) {
+      label.title = cell[label.dataset.help].description + (label.dataset.help === "directions"
+        ? " Here: several cones separated by spaces, e.g. 0,-1:30 -1,0:30." : "");
+    }
+    $("cell-friction").placeholder = String(cell.friction.default);
+  }
+
+  // -- the robot cell -----------------------------------------------------------------------------
+  function fillBase(ids) { // "none" and the assembly's parts; the chosen part kept where it is one
+    const select = $("cell-base"), chosen = select.value;
+    select.textContent = "";
+    for (const [value, text] of [["", "none"]].concat(ids.map((id) => [id, id]))) {
+      const o = document.createElement("option");
+      o.value = value;
+      o.textContent = text;
+      select.appendChild(o);
+    }
+    select.value = ids.includes(chosen) ? chosen : "";
+    $("cell").hidden = false;
+  }
+
+  // the insertion cones typed, as the CLI's repeated --directions DX,DY:DEG: separated by spaces
+  // (or commas after a DEG); what is not a cone goes as typed, for the service to name
+  function cones(text) {
+    const out = [];
+    for (const chunk of text.replace(/\s*([,:])\s*/g, "$1").split(/[\s;]+/).filter(Boolean)) {
+      let acc = [];
+      for (const piece of chunk.split(",").filter(Boolean)) {
+        acc.push(piece);
+        if (piece.includes(":")) { out.push(acc.join(",")); acc = []; }
+      }
+      if (acc.length) out.push(acc.join(","));
+    }
+    return out;
+  }
+
+  // the request's "constraints": only what is set (null when nothing is); the service checks it
+  function constraints() {
+    const c = {};
+    if ($("cell-base").value) c.base = $("cell-base").value;
+    if ($("cell-linear").checked) c.linear = true;
+    const dirs = cones($("cell-directions").value);
+    if (dirs.length) c.directions = dirs;
+    const gravity = $("cell-gravity").value.trim();
+    if (gravity) c.gravity = gravity;
+    const friction = $("cell-friction");
+    if (friction.validity.badInput) throw new Error("friction: type a number >= 0, or leave it " +
+      "blank for the service's default " + friction.placeholder);
+    if (friction.value !== "") c.friction = Number(friction.value);
+    if ($("cell-layers").checked) c.layers = true;
+    return Object.keys(c).length ? c : null;
+  }
+
+  // a plan's constraints in words, as CellConstraints.describe() says them on the command line
+  function cellText(c) {
+    const out = [];
+    if (c.base !== null && c.base !== undefined) out.push(`${c.base} fixed in the fixture`);
+    if (c.linear) out.push("one part per step");
+    if (c.directions && c.directions.length) {
+      out.push("insertion within " + c.directions.map((t) => {
+        const [vec, deg] = t.split(":");
+        return `${deg}\u00b0 of (${vec})`;
+      }).join(" or "));
+    }
+    if (c.gravity) out.push(`stable under gravity (${c.gravity}), friction ${c.friction}`);
+    if (c.layers) out.push("in layers against gravity");
+    return out.join(", ");
   }
 
   // -- geometry -------------------------------------------------------------------------------------
@@ -253,6 +325,7 @@
       `<span>${circle.top}</span><span>partitions of the whole assembly each direction admits` +
       ` (white: none)</span>`;
     $("assembly-section").hidden = false;
+    fillBase(geom.ids);
     $("plan").disabled = false;
   }
 
@@ -294,16 +367,21 @@
     if (!state.inspected) return;
     const seed = $("seed").value.trim();
     if (!/^-?[0-9]+$/.test(seed)) { say(`seed ${JSON.stringify(seed)}: must be an integer`); return; }
+    let cell;
+    try { cell = constraints(); } catch (e) { say(e.message); return; }
     const gen = ++state.gen;
     stop();
     say("");
     setState("planning");
     $("plan").disabled = true;
-    $("plan-status").textContent = `planning with ${$("method").value} ...`;
+    $("plan-status").textContent = `planning with ${$("method").value}` +
+      (cell ? " in the robot cell" : "") + " ...";
+    $("plan-status").title = "";
     const asked = performance.now();
     // the seed is spliced as typed: JSON numbers past 2^53 would lose digits in JavaScript
     const body = `{"assembly":${JSON.stringify(state.inspected.assembly)},` +
-      `"method":${JSON.stringify($("method").value)},"seed":${seed}}`;
+      `"method":${JSON.stringify($("method").value)},"seed":${seed}` +
+      (cell ? `,"constraints":${JSON.stringify(cell)}` : "") + "}";
     try {
       const { doc, headers } = await request("/plan", { method: "POST", body,
         headers: { "Content-Type": "application/json" } });
@@ -329,10 +407,15 @@
     const timing = `answered in ${roundTrip.toFixed(2)} s` +
       (total === null ? "" : `, ${total.toFixed(2)} s from the file to this plan`);
     document.body.dataset.fileToPlanS = total === null ? "" : total.toFixed(3);
+    // the robot cell the plan obeys, and what its scores cover (the plan's "score_note")
+    const cell = doc.constraints ? ` (robot cell: ${cellText(doc.constraints)})` : "";
+    $("plan-status").title = doc.score_note || "";
     if (doc.feasible !== true) {
       $("story-section").hidden = true;
+      // under constraints the service's line names the rule that blocks (or the interlock)
       const why = doc.feasible === false
-        ? `no assembly sequence: the subassembly {${doc.interlocked.join(", ")}} is interlocked`
+        ? (doc.constraints ? doc.message
+          : `no assembly sequence: the subassembly {${doc.interlocked.join(", ")}} is interlocked`)
         : `no plan: ${doc.status} (${doc.message})`;
       $("plan-status").textContent = `${doc.method}: ${why}; ${timing}`;
       return;
@@ -343,7 +426,8 @@
     const evaluated = state.details && typeof state.details.eval_seconds === "number"
       ? `, evaluated by the simulator in ${state.details.eval_seconds.toFixed(2)} s` : "";
     $("plan-status").textContent = `${doc.method} plan of ${doc.assembly}: robustness R = ${r} ` +
-      `over ${doc.steps.length} steps, planned in ${doc.seconds.toFixed(2)} s${evaluated}; ${timing}`;
+      `over ${doc.steps.length} steps${cell}, planned in ${doc.seconds.toFixed(2)} s` +
+      `${evaluated}; ${timing}`;
     const tbody = $("steps").querySelector("tbody");
     tbody.textContent = "";
     doc.steps.forEach((st, k) => {
@@ -477,18 +561,22 @@
   function storyboardSvg() { // every step in a grid of four columns, as `rap-farm plan --picture`
     const k = state.plan.steps.length, cols = Math.min(4, k), rows = Math.ceil(k / cols);
     const w = 300, h = 300, title = 26;
-    let inner = `<rect width="${cols * w}" height="${rows * (h + title) + 34}" fill="#fff"/>` +
+    const cell = state.plan.constraints ? "robot cell: " + cellText(state.plan.constraints) : "";
+    const head = cell ? 52 : 34; // a second line names the robot cell
+    let inner = `<rect width="${cols * w}" height="${rows * (h + title) + head}" fill="#fff"/>` +
       `<text x="${cols * w / 2}" y="22" text-anchor="middle" font-family="sans-serif" ` +
       `font-size="16">${esc(`${state.plan.assembly}: ${state.plan.method} plan, R = ` +
-      (state.plan.robustness === null ? "?" : state.plan.robustness.toFixed(3)))}</text>`;
+      (state.plan.robustness === null ? "?" : state.plan.robustness.toFixed(3)))}</text>` +
+      (cell ? `<text x="${cols * w / 2}" y="42" text-anchor="middle" font-family="sans-serif" ` +
+        `font-size="12" fill="#444">${esc(cell)}</text>` : "");
     for (let i = 0; i < k; i++) {
-      const c = stepContent(i), x = (i % cols) * w, y = 34 + Math.floor(i / cols) * (h + title);
+      const c = stepContent(i), x = (i % cols) * w, y = head + Math.floor(i / cols) * (h + title);
       inner += `<text x="${x + w / 2}" y="${y + 17}" text-anchor="middle" font-family="sans-serif" ` +
         `font-size="13" fill="${c.bad ? "#c62828" : "#111"}">${esc(c.title)}</text>` +
         `<svg x="${x + 6}" y="${y + title}" width="${w - 12}" height="${h - 12}" viewBox="${c.box}">` +
         `${c.inner}</svg>`;
     }
-    const width = cols * w, height = rows * (h + title) + 34;
+    const width = cols * w, height = rows * (h + title) + head;
     return { text: svg(`0 0 ${width} ${height}`, inner, `width="${width}" height="${height}"`),
       width, height };
   }
