@@ -77,7 +77,9 @@ def plan_once(path: Path, setting: str, cnn, seed: int = SEED) -> dict:
         ndbg = time.perf_counter() - t
         scorer = Scorer(sim, cnn if method != "sim" and method != "optimal" else None,
                         ScoreCache())
+        render = cnn.render_seconds
         result = make_planner(method, **options).solve(problem, scorer)
+        render = cnn.render_seconds - render
     finally:
         sim.close()
         cnn.cores_busy = None
@@ -86,6 +88,10 @@ def plan_once(path: Path, setting: str, cnn, seed: int = SEED) -> dict:
             # simulations while planning (the plan's evaluation simulates its unsimulated steps)
             "simulations": st.get("sim_run", 0) - st.get("eval_simulations", 0),
             "eval_simulations": st.get("eval_simulations", 0), "cnn_scores": st.get("cnn_ops", 0),
+            # where the time went (seconds, planning and evaluation together): the CNN's calls
+            # (rendering included), its rendering alone, the simulator's batches (waited for)
+            "cnn_seconds": st.get("cnn_seconds", 0.0), "render_seconds": render,
+            "sim_seconds": st.get("sim_seconds", 0.0),
             "bound": result.bound.get("robustness_upper") if result.bound else None,
             "load": os.getloadavg()[0]}
 
@@ -103,7 +109,9 @@ def run(paths: list[Path], settings: list[str], out: Path, redo: set[str]) -> di
             rows[setting] = plan_once(path, setting, cnn)
             r = rows[setting]
             print(f"{path.stem:16s} {setting:8s} R {r['robustness']:.3f}  {r['seconds']:7.2f} s  "
-                  f"sims {r['simulations']:5d}  load {r['load']:.1f}", flush=True)
+                  f"sims {r['simulations']:5d}  cnn {r['cnn_scores']:5d} ops {r['cnn_seconds']:6.2f} s "
+                  f"(render {r['render_seconds']:5.2f} s)  sim batches {r['sim_seconds']:6.2f} s  "
+                  f"load {r['load']:.1f}", flush=True)
             out.parent.mkdir(parents=True, exist_ok=True)
             tmp = out.with_suffix(".tmp")
             tmp.write_text(json.dumps(data, indent=1))
