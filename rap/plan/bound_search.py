@@ -18,6 +18,12 @@ at a per-operation level (``rap.model.score_bounds``). Three views:
   and the bound's share ``upper`` in [0, 1], whichever is the larger (``upper = 0``: the constant
   optimism alone, as before; ``upper = 1, optimism = 0``: the bound itself).
 
+An operation *partly simulated* by a sequential test (``rap.plan.screening``: chunks of trials,
+stopped once its score is shown below what could still matter) is in ``partial``, not in
+``simulated``: ``known`` is its chunks' rate, ``of`` their upper confidence bound while the
+search chooses by raised scores (their rate once lowered), ``high`` stays the model's bound (so
+the reported ``V`` keeps its confidence), and no incumbent counts it.
+
 ``max_value(graph, scores_of, whole)``: ``max over sequences of the product of scores`` by branch
 and bound (no tie-breaking, so ties are pruned); ``incumbent(graph, scores, whole)``: the best
 sequence all of whose operations are simulated (its robustness and tree; 0 and None when there is
@@ -57,6 +63,8 @@ class SearchScores:
     predicted: dict = field(default_factory=dict)
     bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
     simulated: dict = field(default_factory=dict)
+    # key -> (successes, trials, upper bound) of an operation partly simulated (module doc)
+    partial: dict = field(default_factory=dict)
     # id(op) -> (op, key): a key is a SHA-256 of the operation's content, the search's main
     # bookkeeping cost when recomputed; the op is held so that its id is never reused
     _keys: dict = field(default_factory=dict, repr=False)
@@ -145,6 +153,9 @@ class SearchScores:
         k = self.key(op)
         if k in self.simulated:
             return self.simulated[k]
+        if k in self.partial:
+            s, n, up = self.partial[k]
+            return up if self.raised else s / n
         p = self.predicted[k]
         if self.trust is not None and p >= self.trust:
             return p
@@ -156,9 +167,14 @@ class SearchScores:
         return out
 
     def known(self, op) -> float:
-        """Simulated, else predicted."""
+        """Simulated, else partly simulated (the chunks' rate), else predicted."""
         k = self.key(op)
-        return self.simulated[k] if k in self.simulated else self.predicted[k]
+        if k in self.simulated:
+            return self.simulated[k]
+        if k in self.partial:
+            s, n, _ = self.partial[k]
+            return s / n
+        return self.predicted[k]
 
     def high(self, op) -> float:
         """Simulated, else the upper bound (1 for an operation not predicted)."""
@@ -171,16 +187,21 @@ class SearchScores:
     def simulate(self, ops) -> None:
         """Simulate the operations not simulated yet (one batch)."""
         ops = [op for op in ops if self.key(op) not in self.simulated]
-        for op, sc in zip(ops, self.scorer.scores(self.problem, ops)):
-            self.simulated[self.key(op)] = float(sc)
-        self._changed(ops)
+        self.add_simulated(ops, self.scorer.scores(self.problem, ops))
 
     def add_simulated(self, ops, scores) -> None:
         """Scores simulated elsewhere (a plan's evaluation)."""
         ops = list(ops)
         for op, sc in zip(ops, scores):
             self.simulated[self.key(op)] = float(sc)
+            self.partial.pop(self.key(op), None)
         self._changed(ops)
+
+    def add_partial(self, op, successes: int, trials: int, upper: float) -> None:
+        """``op``'s sequential test so far: ``successes`` of ``trials``, ``upper`` the upper
+        bound of its score (module doc)."""
+        self.partial[self.key(op)] = (int(successes), int(trials), float(upper))
+        self._changed([op], ("of",))
 
     def simulated_or_0(self, op) -> float:
         """Simulated, else 0 (what the incumbent is chosen by)."""
