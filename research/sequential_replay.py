@@ -13,8 +13,8 @@ planning (full simulations x 100 + chunk trials), R (labels), R / R opt, whether
 
 Settings: the planner is ``plan``'s default search (``SearchOptions``; ``--options upper=1.0,gap=0``
 changes some) with ``--sequential D`` for each D of ``--deltas``; ``--chunks 20,20,20`` the
-schedule. Cost: about a second per (setting,
-assembly) on one core; nothing is simulated.
+schedule (default: the library's, ``rap.sim.sequential.DEFAULT_CHUNKS``). Cost: about a second
+per (setting, assembly) on one core; nothing is simulated.
 """
 
 from __future__ import annotations
@@ -74,7 +74,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--set", choices=("fresh", "unseen", "validation", "test"), default="fresh")
     ap.add_argument("--deltas", default="0.05")
-    ap.add_argument("--chunks", default="20,20,20")
+    ap.add_argument("--chunks", default="", help="trials per chunk, e.g. 20,20,20 (default: "
+                                                  "rap.sim.sequential.DEFAULT_CHUNKS)")
     ap.add_argument("--only", default="")
     ap.add_argument("--options", default="", help="other search options, e.g. upper=1,gap=0")
     ap.add_argument("--cache", default=str(ROOT / "reports" / "search-validation"))
@@ -85,14 +86,16 @@ def main() -> None:
     bounds = load()
     options = {k: float(v) if "." in v else int(v)
                for k, v in (x.split("=") for x in a.options.split(",") if x)}
-    chunks = tuple(int(x) for x in a.chunks.split(","))
+    from rap.sim.sequential import DEFAULT_CHUNKS
+
+    chunks = tuple(int(x) for x in a.chunks.split(",")) if a.chunks else DEFAULT_CHUNKS
     deltas = [float(x) for x in a.deltas.split(",")]
     names = assemblies_of(a.set)
     if a.only:
         names = [n for n in names if n in a.only.split(",")]
     tabs = saved_tables(a.cache, a.set, names)
-    print(f"{a.set}: {len(names)} assemblies, search {options or 'defaults'}, chunks {chunks} (REPLAY: chunks are binomial draws "
-          f"from the 100-trial labels)")
+    print(f"{a.set}: {len(names)} assemblies, search {options or 'defaults'}, chunks {chunks} "
+          f"(REPLAY: chunks are binomial draws from the 100-trial labels)")
     head = f"{'assembly':>16} {'R opt':>6} | {'off: R':>6} {'trials':>6}"
     for d in deltas:
         head += f" | {'q' + format(d, 'g') + ': R':>8} {'trials':>6} {'saved':>6} {'part':>4} chg"

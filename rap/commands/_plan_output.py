@@ -76,6 +76,7 @@ def bound_lines(result) -> list[str]:
            f"{100 * (1 - gap):.1f}% of the optimum's robustness (gap {100 * gap:.1f}%)"
            + (f" ({b['note']})" if b.get("note") else "")]
     n = st.get("stopped_after", 0)
+    n = f"{n:g}" if isinstance(n, float) else n  # sequential tests count chunks as shares
     if st.get("stopped") == "gap":
         out.append(f"stopped at --gap {st['gap']:g} after {n} simulations")
     elif st.get("stopped") == "bound":

@@ -15,9 +15,9 @@ processes it starts (``LocalSimulator.workers``), so that ``close()`` can stop w
 loading the simulator with public calls only (``Process.terminate``, then ``shutdown(wait=True)``;
 ``terminate_workers`` on Python 3.14 and later).
 
-``simulate_chunks(problem, chunks)``: the chunks of sequential tests (``rap.sim.sequential``), each
-``(op, index, trials)`` one run of ``trials`` trials from ``chunk_seed(problem.seed(op), index)``, in
-the same way (never cached: not labels).
+``simulate_chunks(problem, chunks)``: the chunks of sequential tests (``rap.sim.sequential``),
+each ``(op, index, trials)`` one run of ``trials`` trials from ``chunk_seed(problem.seed(op),
+index)``, in the same way (never cached: not labels).
 
 Same seeds, same scores in every configuration. No ray, no torch.
 

@@ -176,7 +176,8 @@ class Scorer:
         st.cache_hits += len(ops) - sum(1 for c in found if c is None)
         if missing:
             b = self.budget
-            if b.max_simulations is not None and self._spent(problem) + len(missing) > b.max_simulations:
+            if (b.max_simulations is not None
+                    and self._spent(problem) + len(missing) > b.max_simulations):
                 raise BudgetSpent(f"simulation budget of {b.max_simulations} spent")
             self._progress(len(missing))
             t = time.perf_counter()

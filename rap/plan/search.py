@@ -65,13 +65,14 @@ only where it decides:
    keep the choice ahead of ``I`` (``rap.plan.screening``: a chunk of 10 trials,
    ``rap.sim.sequential``); it is then *partly simulated* (its chunk's upper bound is what the
    search chooses it by) and the choice moves on; otherwise it gets its fixed 100-trial
-   simulation. Measured: no cheaper than without (``research/sequential_replay.py``: the
-   comparisons a search with an incumbent makes are near ties, which 10 to 60 trials cannot
-   decide, and most simulations come before any incumbent); off by default. The budget counts a chunk as its share of a
-   simulation. Without an incumbent, or with a backend that runs no chunks (the planning service's
-   pool), every simulation is full. The plan's steps always get their 100-trial scores (the
-   evaluation); a chunk is never a step's score nor cached. ``stats``: ``search_partial`` (the
-   operations left partly simulated), ``search_trials`` (trials simulated while planning).
+   simulation. The budget counts a chunk as its share of a simulation. Without an incumbent, or
+   with a backend that runs no chunks (the planning service's pool), every simulation is full.
+   The plan's steps always get their 100-trial scores (the evaluation); a chunk is never a
+   step's score nor cached. ``stats``: ``search_partial`` (the operations left partly
+   simulated), ``search_trials`` (trials simulated while planning). Measured: no cheaper than
+   without (``research/sequential_replay.py``, docs/RESULTS.md: the comparisons a search with an
+   incumbent makes are near ties, which 10 to 60 trials cannot decide, and most simulations come
+   before any incumbent); off by default.
 
 With a perfect model (predictions equal to the simulator's scores) the exact mode returns the
 optimum exactly; with zero-width bounds too (``ScoreBounds.zero_width()``), ``V`` is the optimum. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
