@@ -19,6 +19,12 @@ at a per-operation level (``rap.model.score_bounds``). Three views:
   optimism alone, as before; ``upper = 1, optimism = 0``: the bound itself). ``lower()`` (choose
   by ``known``) and ``by_bounds()`` (by ``high``) change it for the rest of a search.
 
+An operation *partly simulated* by a sequential test (``rap.plan.screening``: chunks of trials,
+stopped once its score is shown below what could still matter) is in ``partial``, not in
+``simulated``: ``known`` is its chunks' rate, ``of`` their upper confidence bound while the
+search chooses by raised scores (their rate once lowered), ``high`` stays the model's bound (so
+the reported ``V`` keeps its confidence), and no incumbent counts it.
+
 ``max_value(graph, scores_of, whole)``: ``max over sequences of the product of scores`` by branch
 and bound (no tie-breaking, so ties are pruned); ``incumbent(graph, scores, whole)``: the best
 sequence all of whose operations are simulated (its robustness and tree; 0 and None when there is
@@ -60,6 +66,8 @@ class SearchScores:
     predicted: dict = field(default_factory=dict)
     bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
     simulated: dict = field(default_factory=dict)
+    # key -> (successes, trials, upper bound) of an operation partly simulated (module doc)
+    partial: dict = field(default_factory=dict)
     # id(op) -> (op, key): a key is a SHA-256 of the operation's content, the search's main
     # bookkeeping cost when recomputed; the op is held so that its id is never reused
     _keys: dict = field(default_factory=dict, repr=False)
@@ -160,6 +168,9 @@ class SearchScores:
         k = self.key(op)
         if k in self.simulated:
             return self.simulated[k]
+        if k in self.partial:
+            s, n, up = self.partial[k]
+            return up if self.raised else s / n
         p = self.predicted[k]
         if self.trust is not None and p >= self.trust:
             return self._corrected(p)
@@ -171,9 +182,15 @@ class SearchScores:
         return out
 
     def known(self, op) -> float:
-        """Simulated, else predicted (corrected, with a correction)."""
+        """Simulated, else partly simulated (the chunks' rate), else predicted (corrected, with
+        a correction)."""
         k = self.key(op)
-        return self.simulated[k] if k in self.simulated else self._corrected(self.predicted[k])
+        if k in self.simulated:
+            return self.simulated[k]
+        if k in self.partial:
+            s, n, _ = self.partial[k]
+            return s / n
+        return self._corrected(self.predicted[k])
 
     def _corrected(self, p: float) -> float:
         return p if self.correction is None else self.correction(p)
@@ -189,14 +206,14 @@ class SearchScores:
     def simulate(self, ops) -> None:
         """Simulate the operations not simulated yet (one batch)."""
         ops = [op for op in ops if self.key(op) not in self.simulated]
+        scores = [float(sc) for sc in self.scorer.scores(self.problem, ops)]
         refit = False
-        for op, sc in zip(ops, self.scorer.scores(self.problem, ops)):
-            k = self.key(op)
-            self.simulated[k] = float(sc)
-            if self.correction is not None and k in self.predicted:
-                self.correction.add(self.predicted[k], float(sc))
-                refit = True
-        self._changed(ops)
+        if self.correction is not None:
+            for op, sc in zip(ops, scores):
+                if self.key(op) in self.predicted:
+                    self.correction.add(self.predicted[self.key(op)], sc)
+                    refit = True
+        self.add_simulated(ops, scores)
         if refit:
             self._forget("of")  # the unsimulated operations' ``of`` moved
 
@@ -205,7 +222,14 @@ class SearchScores:
         ops = list(ops)
         for op, sc in zip(ops, scores):
             self.simulated[self.key(op)] = float(sc)
+            self.partial.pop(self.key(op), None)
         self._changed(ops)
+
+    def add_partial(self, op, successes: int, trials: int, upper: float) -> None:
+        """``op``'s sequential test so far: ``successes`` of ``trials``, ``upper`` the upper
+        bound of its score (module doc)."""
+        self.partial[self.key(op)] = (int(successes), int(trials), float(upper))
+        self._changed([op], ("of",))
 
     def simulated_or_0(self, op) -> float:
         """Simulated, else 0 (what the incumbent is chosen by)."""

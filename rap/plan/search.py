@@ -79,6 +79,20 @@ only where it decides:
    reported as ``PlanResult.bound``: ``{"robustness_upper": V, "confidence", "gap": 1 - R / V,
    "scope", "note"}`` (``rap.plan.bound_search.report``); its time and CNN batches are in the
    stats (``bound_seconds``), not in ``seconds``.
+7. **Sequential tests** (``sequential`` ``delta``; None: off): with an incumbent ``I``, an
+   operation of the choice is simulated only until its score is shown, at error rate ``delta``,
+   below ``tau = I / (the product of the choice's other steps' scores)``, the least it needs to
+   keep the choice ahead of ``I`` (``rap.plan.screening``: a chunk of 10 trials,
+   ``rap.sim.sequential``); it is then *partly simulated* (its chunk's upper bound is what the
+   search chooses it by) and the choice moves on; otherwise it gets its fixed 100-trial
+   simulation. The budget counts a chunk as its share of a simulation. Without an incumbent, or
+   with a backend that runs no chunks (the planning service's pool), every simulation is full.
+   The plan's steps always get their 100-trial scores (the evaluation); a chunk is never a
+   step's score nor cached. ``stats``: ``search_partial`` (the operations left partly
+   simulated), ``search_trials`` (trials simulated while planning). Measured: no cheaper than
+   without (``research/sequential_replay.py``, docs/RESULTS.md: the comparisons a search with an
+   incumbent makes are near ties, which 10 to 60 trials cannot decide, and most simulations come
+   before any incumbent); off by default.
 
 With a perfect model (predictions equal to the simulator's scores) the exact mode returns the
 optimum exactly; with zero-width bounds too (``ScoreBounds.zero_width()``), ``V`` is the optimum. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
@@ -106,6 +120,8 @@ from rap.plan.problem import PlanningProblem
 from rap.plan.result import PlanResult, PlanStep
 from rap.plan.score_correction import ScoreCorrection
 from rap.plan.scorers import Scorer
+from rap.plan.screening import screen, thresholds
+from rap.sim.sequential import SequentialTest
 
 __all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE",
            "BOUND_ROUND"]
@@ -143,7 +159,8 @@ class SearchPlanner(Planner):
                  optimism: float = 0.0, upper: float = 0.0,
                  confidence: float = DEFAULT_CONFIDENCE, gap: float | None = None,
                  bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND,
-                 tighten: bool = True, adapt: float | None = None):
+                 tighten: bool = True, adapt: float | None = None,
+                 sequential: float | None = None):
         self.optimism = float(optimism)
         self.beam_width = int(beam_width)
         self.max_operations = int(max_operations)
@@ -157,6 +174,8 @@ class SearchPlanner(Planner):
         self.bound_round = int(bound_round)
         self.tighten = bool(tighten)  # False: no second phase (module doc, 5), as before it
         self.adapt = None if adapt is None else float(adapt)  # the correction's prior; None: off
+        # the error rate of sequential tests (module doc, 7; None or 0: off)
+        self.sequential = SequentialTest(float(sequential)) if sequential else None
 
     def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
         """``Planner.solve``, then the plan's bound (module doc, 6)."""
@@ -189,7 +208,15 @@ class SearchPlanner(Planner):
         of it; never past the budget."""
         if scores.upper:
             todo = todo[:self.bound_round]
-        return todo[:self.simulations - spent]
+        return todo[:max(0, math.ceil(self.simulations - spent))]
+
+    def _simulate(self, scores: SearchScores, todo: list, chosen, best) -> float:
+        """Simulate ``todo`` (steps of the choice ``chosen``); returns the simulations spent. With
+        ``sequential``, by sequential tests against the incumbent ``best()`` (module doc, 7)."""
+        if self.sequential is None:
+            scores.simulate(todo)
+            return len(todo)
+        return screen(scores, todo, thresholds(scores, chosen, todo, best()), self.sequential)
 
     def _free_bound(self, scores: SearchScores) -> bool:
         """Whether the choosing scores are the upper bounds themselves (the DP's value is V)."""
@@ -243,6 +270,7 @@ class SearchPlanner(Planner):
             return []
         if self.bounds is None:
             self.bounds = load()
+        trials = scorer.stats.sim_trials
         raise_ = self.simulations > 0  # raised scores choose what to simulate: none to choose
         scores = SearchScores(problem, scorer, self.bounds,
                               bonferroni(self.confidence, len(whole) - 1),
@@ -268,6 +296,9 @@ class SearchPlanner(Planner):
                                      score=scores.simulated.get(k),
                                      confidence=scores.predicted.get(k))
         stats["search_simulations"] = len(scores.simulated)
+        if self.sequential is not None:
+            stats.update(search_partial=len(scores.partial),
+                         search_trials=scorer.stats.sim_trials - trials)
         stats["predicted_operations"] = len(scores.predicted)
         return assembly_order(steps, whole)
 
@@ -334,8 +365,8 @@ class SearchPlanner(Planner):
                 stats["stopped"] = "budget" if todo else "settled"
                 return choice
             todo = self._batch(scores, todo, spent)
-            scores.simulate(todo)
-            spent += len(todo)
+            spent += self._simulate(scores, todo, choice.values(),
+                                    lambda: incumbent(graph, scores, whole)[0])
 
     # -- beam -------------------------------------------------------------------------------------
     def _beam(self, problem: PlanningProblem, scores: SearchScores, whole, stats,
@@ -400,5 +431,6 @@ class SearchPlanner(Planner):
                 stats["stopped"] = "budget" if todo else "settled"
                 return dict(top)
             todo = self._batch(scores, todo, spent)
-            scores.simulate(todo)
-            spent += len(todo)
+            spent += self._simulate(scores, todo, [op for _, op in top], lambda: max(
+                (math.prod(scores.known(op) for _, op in st[3]) for st in beam
+                 if all(scores.is_simulated(op) for _, op in st[3])), default=0.0))

@@ -2,6 +2,9 @@
 
 * ``HashSim``: a fast deterministic fake simulator: the score of an operation is a function of its
   content key (so equal operations score equally in every process), in steps of 1/``trials``.
+* ``BinomialSim``: a fake simulator with the chunks of sequential tests: an operation's label is
+  ``score_fn(op)`` in steps of 1/``trials``; chunk ``index`` of ``n`` trials is ``Binomial(n,
+  score)`` drawn from the chunk's seed (``rap.seeds.chunk_seed``), so chunks are deterministic.
 * ``TableCnn``: a fake CNN returning P(high) from a function of the operation, and an expected
   score from another (the same one by default).
 """
@@ -35,6 +38,33 @@ class HashSim:
         for op in ops:
             sc = hash_score(op, self.trials)
             out.append(CachedScore(sc, int(round(sc * self.trials)), self.trials))
+        return out
+
+
+class BinomialSim:
+    def __init__(self, score_fn, trials: int = 100):
+        self.score_fn = score_fn
+        self.trials = trials
+        self.labels = 0  # full simulations run
+        self.chunks = []  # (op key, index, trials) of every chunk run
+
+    def simulate_many(self, problem, ops):
+        self.labels += len(ops)
+        out = []
+        for op in ops:
+            s = int(round(self.score_fn(op) * self.trials))
+            out.append(CachedScore(s / self.trials, s, self.trials))
+        return out
+
+    def simulate_chunks(self, problem, chunks):
+        from rap.seeds import chunk_seed
+
+        out = []
+        for op, index, n in chunks:
+            self.chunks.append((problem.key(op), index, n))
+            rng = np.random.default_rng(chunk_seed(problem.seed(op), index))
+            s = int(rng.binomial(n, self.score_fn(op)))
+            out.append(CachedScore(s / n, s, n))
         return out
 
 
