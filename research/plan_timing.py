@@ -198,6 +198,9 @@ def figure(data: dict, path: Path, settings: list[str]) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--assemblies", default=str(ROOT / "assemblies" / "unseen"))
+    ap.add_argument("--set", default="unseen",
+                    help="only the assemblies of this score-table set (research.validation_tables: "
+                         "the twelve of the replays); 'all': every file of --assemblies")
     ap.add_argument("--only", action="append", default=None, help="assembly names (repeatable)")
     ap.add_argument("--settings", default=",".join(DEFAULT_SETTINGS))
     ap.add_argument("--out", default=str(ROOT / "reports" / "plan-timing" / "unseen.json"))
@@ -205,6 +208,11 @@ def main() -> None:
     ap.add_argument("--redo", default="", help="settings to run again (comma-separated)")
     a = ap.parse_args()
     paths = sorted(Path(a.assemblies).glob("*.json"))
+    if a.set != "all":
+        from research.validation_tables import assemblies_of
+
+        names = set(assemblies_of(a.set))
+        paths = [p for p in paths if p.stem in names]
     if a.only:
         paths = [p for p in paths if p.stem in a.only]
     settings = a.settings.split(",")
