@@ -96,17 +96,20 @@ def test_experiment_names_read_and_written():
 
 def test_search_defaults_and_the_previous_default_round_trip():
     d = SearchOptions()
-    assert (d.simulations, d.upper, d.confidence, d.gap) == (200, 0.35, 0.95, 0.05)
+    assert (d.simulations, d.upper, d.confidence, d.gap) == (200, 0.35, 0.95, 0.0)
     assert d.table_name() == "search" and from_table_name("search") == d
-    old = from_table_name("search-s0-u0-g0")  # the default before the bounds (issue 30)
+    old = from_table_name("search-s0-u0")  # the default before the bounds (issue 30)
     assert old == SearchOptions(simulations=0, upper=0.0, gap=0.0)
-    assert old.table_name() == "search-s0-u0-g0"
+    assert old.table_name() == "search-s0-u0"
+    tight = from_table_name("search-g5")  # the default, simulating on until within 5% of V
+    assert tight == SearchOptions(gap=0.05) and tight.table_name() == "search-g5"
     assert from_table_name("search-s0").table_name() == "search-s0"  # the same plans (no sims)
     planner = old.build()
     assert (planner.simulations, planner.upper, planner.optimism, planner.gap) == (0, 0.0, 0.0,
                                                                                    None)
     assert make_planner("search", gap=0.0).gap is None  # 0: off, as the planner's None
-    assert make_planner("search", gap=None).gap == 0.05  # None: not given, the default
+    assert make_planner("search", gap=None).gap is None  # None: not given, the default (off)
+    assert make_planner("search", gap=0.05).gap == 0.05
 
 
 def test_the_service_takes_the_declared_options_default_method_first():
