@@ -14,7 +14,7 @@ depend only on (operation, root seed), so the plans' steps and the optimum's are
 
 Settings: ``old`` (search, no simulations: the default before issue 30); ``new`` (the default
 now); ``gG`` (the default with ``--gap G/100``: simulating on, by the bounds, until the plan is
-within G% of the bound); ``bN`` (the default with ``--simulations N``); ``sim`` (simulator-only greedy); ``rap-paper``;
+within G% of the bound); ``bN`` (the default with ``--simulations N``), ``bN-gG`` (both); ``sim`` (simulator-only greedy); ``rap-paper``;
 ``optimal``. Results are kept per (assembly, setting) in ``--out`` and reused on a rerun, so an
 interrupted run resumes (``--redo SETTINGS`` runs those again, e.g. on a quieter machine). Prints
 the load average with each row: the times are this machine's (2 cores), under whatever else ran.
@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_SETTINGS = ("old", "b20", "b40", "new", "g5", "sim", "optimal")
+DEFAULT_SETTINGS = ("old", "b20", "b40", "new", "b20-g5", "b40-g5", "g5", "sim", "optimal")
 SEED = 11
 
 
@@ -40,19 +40,22 @@ def options_of(setting: str) -> tuple[str, dict]:
     """(method, options) a setting name stands for (module doc)."""
     if setting == "old":
         return "search", {"simulations": 0}
-    if setting == "new":
-        return "search", {}
-    if setting.startswith("g") and setting[1:].isdigit():
-        return "search", {"gap": int(setting[1:]) / 100}
-    if setting.startswith("b") and setting[1:].isdigit():
-        return "search", {"simulations": int(setting[1:])}
     if setting == "rap-paper":
         from rap.plan.methods import PAPER_RAP
 
         return "rap", dict(PAPER_RAP)
     if setting in ("sim", "optimal"):
         return setting, {}
-    raise ValueError(f"setting {setting!r}: old, new, bN, sim, rap-paper or optimal")
+    options = {}
+    for token in ([] if setting == "new" else setting.split("-")):
+        if token[:1] == "b" and token[1:].isdigit():
+            options["simulations"] = int(token[1:])
+        elif token[:1] == "g" and token[1:].isdigit():
+            options["gap"] = int(token[1:]) / 100
+        else:
+            raise ValueError(f"setting {setting!r}: old, new, bN, gG, bN-gG, sim, rap-paper or "
+                             f"optimal")
+    return "search", options
 
 
 def plan_once(path: Path, setting: str, cnn, seed: int = SEED) -> dict:
@@ -137,6 +140,24 @@ def table(data: dict, settings: list[str]) -> str:
     return "\n".join(lines)
 
 
+def detail(data: dict, settings: list[str]) -> str:
+    """Markdown, one row per assembly: the optimum's R and seconds, then per setting R / R opt,
+    planning seconds and their ratio to the optimum's."""
+    shown = [s for s in settings if s != "optimal"]
+    head = "| assembly | R opt | optimum s | " + " | ".join(
+        f"{s}: R/opt, s (x opt)" for s in shown) + " |"
+    lines = [head, "|---|---:|---:|" + "---:|" * len(shown)]
+    for name, d in data.items():
+        if "optimal" not in d:
+            continue
+        o = d["optimal"]
+        cells = [f"{d[s]['robustness'] / o['robustness']:.3f}, {d[s]['seconds']:.1f} "
+                 f"({d[s]['seconds'] / o['seconds']:.2f})" if s in d else "" for s in shown]
+        lines.append(f"| {name} | {o['robustness']:.3f} | {o['seconds']:.0f} | "
+                     + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 STYLE = {"old": ("s", "tab:red", "old default (search, 0 simulations)"),
          "new": ("o", "black", "new default (bound search, 200 simulations at most)"),
          "g5": ("h", "tab:blue", "new default with --gap 0.05 (bound within 5%)"),
@@ -168,12 +189,15 @@ def figure(data: dict, path: Path, settings: list[str]) -> None:
             means[s] = (statistics.mean(xs), statistics.mean(ys))
             marker, color, _ = STYLE.get(s, ("o", "tab:blue", s))
             ax.plot(xs, ys, ls="", marker=marker, ms=3, color=color, alpha=0.25)
-        budget = sorted((int(s[1:]), s) for s in means if s[1:].isdigit() and s[0] == "b")
-        curve = [means[s] for _, s in budget] + ([means["new"]] if "new" in means else [])
-        if curve:
-            ax.plot(*zip(*sorted(curve)), color="black", lw=0.8, marker="o", ms=3,
-                    label="new default at budgets " + ", ".join(str(n) for n, _ in budget)
-                    + (" and 200" if "new" in means else ""))
+        for tail, head, color in (("", "new", "black"), ("-g5", "g5", "tab:blue")):
+            budget = sorted((int(k[1:len(k) - len(tail)]), k) for k in means
+                            if k.startswith("b") and k.endswith(tail)
+                            and k[1:len(k) - len(tail)].isdigit())
+            curve = [means[k] for _, k in budget] + ([means[head]] if head in means else [])
+            if len(curve) > 1:
+                ax.plot(*zip(*sorted(curve)), color=color, lw=0.8, marker="o", ms=3,
+                        label=f"{STYLE[head][2].split(' (')[0]} at --simulations "
+                              + ", ".join(str(n) for n, _ in budget) + " and 200")
         for s, (x, y) in means.items():
             if s in STYLE:
                 marker, color, name = STYLE[s]
@@ -204,6 +228,7 @@ def main() -> None:
     ap.add_argument("--only", action="append", default=None, help="assembly names (repeatable)")
     ap.add_argument("--settings", default=",".join(DEFAULT_SETTINGS))
     ap.add_argument("--out", default=str(ROOT / "reports" / "plan-timing" / "unseen.json"))
+    ap.add_argument("--detail", action="store_true", help="also print the per-assembly table")
     ap.add_argument("--figure", type=Path, help="also draw the figure (module doc) here")
     ap.add_argument("--redo", default="", help="settings to run again (comma-separated)")
     a = ap.parse_args()
@@ -218,6 +243,8 @@ def main() -> None:
     settings = a.settings.split(",")
     data = run(paths, settings, Path(a.out), set(filter(None, a.redo.split(","))))
     print(table(data, settings))
+    if a.detail:
+        print(detail(data, settings))
     if a.figure:
         figure(data, a.figure, settings)
 
