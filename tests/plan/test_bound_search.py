@@ -224,8 +224,9 @@ def test_options_names_and_json():
     opts = from_table_name("search-s100-u100-c90-g10")
     assert (opts.simulations, opts.upper, opts.confidence, opts.gap) == (100, 1.0, 0.9, 0.1)
     assert opts.table_name() == "search-s100-u100-c90-g10"
-    assert SearchOptions().table_name() == "search" and SearchOptions().gap == 0.05
-    assert from_table_name("search-s200-u35-c95-g5") == SearchOptions()  # the defaults
+    assert SearchOptions().table_name() == "search" and SearchOptions().gap == 0.0
+    assert from_table_name("search-s200-u35-c95") == SearchOptions()  # the defaults (no gap)
+    assert from_table_name("search-s200-u35-c95-g5") == SearchOptions(gap=0.05)
     planner = opts.build()
     assert (planner.upper, planner.confidence, planner.gap) == (1.0, 0.9, 0.1)
     problem = PlanningProblem(six("hexagon"), PARAMS)
