@@ -158,7 +158,7 @@ def unsure(lo: float, hi: float) -> None:
     print(f"{UNSURE}: {kept} of {total} new rows (P(high) in [{lo}, {hi}] or wrong)")
 
 
-def mix(seeds: range, new: Path = DATASET) -> None:
+def mix(seeds: range, new: Path | None = DATASET, out: Path = MIX) -> None:
     """``reports/grow/mix``: hard links to the shards of ``new`` (the new rows, or the unsure
     ones) and to the corpus's shards of ``seeds``, with their geometry and the new dataset's
     metadata."""
@@ -166,29 +166,29 @@ def mix(seeds: range, new: Path = DATASET) -> None:
 
     from rap.dataset import shard_files
 
-    if MIX.exists():
-        shutil.rmtree(MIX)
-    (MIX / "_assemblies").mkdir(parents=True)
-    shutil.copyfile(DATASET / "_rapfarm.json", MIX / "_rapfarm.json")
+    if out.exists():
+        shutil.rmtree(out)
+    (out / "_assemblies").mkdir(parents=True)
+    shutil.copyfile(DATASET / "_rapfarm.json", out / "_rapfarm.json")
     keep = {f"-s{s}" for s in seeds}
     rows = {"new": 0, "corpus": 0}
-    for src, kind in ((new, "new"), (CORPUS, "corpus")):
+    for src, kind in ((new, "new"), (CORPUS, "corpus")) if new else ((CORPUS, "corpus"),):
         for f in shard_files(src):
             name = f.parent.name
             if kind == "corpus" and not any(name.endswith(k) for k in keep):
                 continue
-            (MIX / name).mkdir(exist_ok=True)
-            os.link(f, MIX / name / f.name)
+            (out / name).mkdir(exist_ok=True)
+            os.link(f, out / name / f.name)
             g = src / "_assemblies" / f"{name}.json"
-            if g.exists() and not (MIX / "_assemblies" / g.name).exists():
-                shutil.copyfile(g, MIX / "_assemblies" / g.name)
+            if g.exists() and not (out / "_assemblies" / g.name).exists():
+                shutil.copyfile(g, out / "_assemblies" / g.name)
             rows[kind] += pq.ParquetFile(f).metadata.num_rows
-    print(f"{MIX}: {rows['new']} new rows, {rows['corpus']} corpus rows "
-          f"({len(list(MIX.iterdir())) - 2} assemblies)")
+    print(f"{out}: {rows['new']} new rows, {rows['corpus']} corpus rows "
+          f"({len(list(out.iterdir())) - 2} assemblies)")
 
 
-def train(epochs: int, lr: float, out: Path, seed: int) -> None:
-    s = _run(_cli("train", str(MIX), "--init", str(SHIPPED), "--seed", str(seed), "--epochs",
+def train(epochs: int, lr: float, out: Path, seed: int, data: Path = MIX) -> None:
+    s = _run(_cli("train", str(data), "--init", str(SHIPPED), "--seed", str(seed), "--epochs",
                   str(epochs), "--lr", str(lr), "--threads", "2", "--out", str(out), "--restart",
                   "--descriptors", "all", "--batch-size", "256"))  # the shipped network, batch
     print(f"train: {s:.0f} s")
@@ -288,7 +288,10 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("what", choices=("assemblies", "label", "unsure", "mix", "train", "measure"))
     ap.add_argument("--band", default="0.2,0.8", help="unsure: the P(high) band LO,HI")
-    ap.add_argument("--new", type=Path, default=DATASET, help="mix: the new rows (or unsure)")
+    ap.add_argument("--new", default=str(DATASET),
+                    help="mix: the new rows (or reports/grow/unsure; 'none': the control, "
+                         "the corpus sample alone)")
+    ap.add_argument("--mix", type=Path, default=MIX, help="mix, train: the training set's dir")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--corpus-seeds", default="0-3", help="corpus seeds in the mix: A-B")
     ap.add_argument("--epochs", type=int, default=2)
@@ -307,9 +310,9 @@ def main(argv=None) -> None:
         unsure(*map(float, a.band.split(",")))
     elif a.what == "mix":
         lo, hi = map(int, a.corpus_seeds.split("-"))
-        mix(range(lo, hi + 1), a.new)
+        mix(range(lo, hi + 1), None if a.new == "none" else Path(a.new), a.mix)
     elif a.what == "train":
-        train(a.epochs, a.lr, a.model, a.seed)
+        train(a.epochs, a.lr, a.model, a.seed, a.mix)
     else:
         measure(a.model, a.plans, a.setting)
 
