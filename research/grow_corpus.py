@@ -9,6 +9,10 @@ default. Everything it writes is under ``reports/grow/`` (git-ignored). Steps, i
     (python -m research.grow_corpus unsure; ... mix --new reports/grow/unsure: the unsure rows only)
     python -m research.grow_corpus train             # rap-farm train --init -> reports/grow/ft.pt
     python -m research.grow_corpus measure [--plans] # shipped vs fine-tuned on unseen and fresh
+    # the control, without the new rows (what fine-tuning on the corpus sample alone does):
+    python -m research.grow_corpus mix --new none --mix reports/grow/control
+    python -m research.grow_corpus train --mix reports/grow/control --model reports/grow/control.pt
+    python -m research.grow_corpus measure --model reports/grow/control.pt --plans
 
 * ``assemblies``: new kinds that are not the unseen test set's: pentomino tilings of 5 x 12,
   4 x 15 and 3 x 20 and basketweaves of 2 x 2 and 4 x 2 blocks (``scripts/make_unseen.py``'s
@@ -37,10 +41,10 @@ default. Everything it writes is under ``reports/grow/`` (git-ignored). Steps, i
   the shipped ones, calibrated for the shipped model (so the fine-tuned plans' bounds are not
   calibrated; R / R opt still compares).
 
-Cost on this 2-core machine: ``label`` about 2,000 operations at 5-15 a second (3-7 minutes);
-``train`` about 18,000 rows an epoch at 150-300 a second plus rendering their descriptors
-(minutes an epoch); ``measure`` one CNN pass over each of the 23 graphs (a few minutes), ``--plans``
-seconds per assembly and setting. Each step prints its wall time.
+Cost measured on this 2-core machine (each step prints its wall time): ``label`` 2,100
+operations in 324 s (6.7 a second); ``unsure`` 19 s; ``train`` 2 epochs of about 16,500 rows in
+277 s alone (130 rows a second; 550-610 s while another job shared the cores); ``measure`` one
+CNN pass over the 23 graphs' 17,552 operations, about 300 s alone, ``--plans`` 20 s.
 """
 
 from __future__ import annotations
