@@ -322,8 +322,8 @@ def _init_checkpoint(path: str | Path, model_config: ModelConfig) -> Checkpoint:
     for another architecture."""
     ckpt = load_checkpoint(path)
     if ckpt.config != model_config:
-        theirs = ckpt.config.to_dict()
-        diff = sorted(k for k, v in model_config.to_dict().items() if theirs.get(k) != v)
+        theirs, ours = ckpt.config.to_dict(), model_config.to_dict()  # a default may be left out
+        diff = sorted(k for k in theirs.keys() | ours.keys() if theirs.get(k) != ours.get(k))
         raise ParameterError("init", Path(path), f"its network differs from this recipe's in "
                              f"{', '.join(diff)} (choose the recipe and options it was trained "
                              f"with)")

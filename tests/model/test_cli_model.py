@@ -62,7 +62,7 @@ def test_evaluate_command_no_ray(tiny_dataset, tmp_path):
     (["train", "{tiny}", "--descriptors", "depth,colour"], "--descriptors 'depth,colour': all, none"),
     (["evaluate", "{tiny}", "--descriptors", ""], "--descriptors '': all, none"),
     (["train", "{tiny}", "--init", "rap/data/default_model.pt", "--recipe", "paper"],
-     "its network differs from this recipe's in head, norm"),
+     "its network differs from this recipe's in descriptors, head, norm"),
 ])
 def test_cli_errors_are_one_line_with_status_2(argv, message, tiny_dataset, tmp_path, capsys):
     argv = [a.format(missing=tmp_path / "missing", tiny=tiny_dataset) for a in argv]
@@ -84,7 +84,7 @@ def test_cli_errors_are_one_line_with_status_2(argv, message, tiny_dataset, tmp_
     (["train", "{tiny}", "--recipe", "fast"], "--recipe 'fast': one of paper, robust"),
     (["evaluate", "{tiny}", "--recipe", "fast"], "--recipe 'fast': one of paper, robust"),
     (["train", "{tiny}", "--init", "rap/data/default_model.pt", "--recipe", "paper"],
-     "--init rap/data/default_model.pt: its network differs from this recipe's in head, norm "
+     "--init rap/data/default_model.pt: its network differs from this recipe's in descriptors, head, norm "
      "(choose the recipe and options it was trained with)"),
 ])
 def test_cli_names_the_flag_where_the_library_names_the_parameter(argv, message, tiny_dataset,

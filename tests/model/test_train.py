@@ -1,4 +1,5 @@
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -92,6 +93,18 @@ def test_init_with_another_network_is_one_input_error(tiny_dataset, tmp_path):
                               f"(choose the recipe and options it was trained with)")
     with pytest.raises(InputError, match="no such checkpoint"):
         train(tiny_dataset, model_config=TINY_MODEL, config=FAST_TRAIN, init=tmp_path / "none.pt")
+
+
+def test_init_names_a_field_the_recipe_leaves_out():
+    """The shipped model takes descriptors; a recipe without them leaves the key out of its
+    dict: the message still names it (it once named nothing)."""
+    from rap.model.checkpoint import load_checkpoint
+    from rap.model.train import _init_checkpoint
+
+    shipped = Path(__file__).resolve().parents[2] / "rap" / "data" / "default_model.pt"
+    images_only = replace(load_checkpoint(shipped).config, descriptors=())
+    with pytest.raises(ParameterError, match="differs from this recipe's in descriptors "):
+        _init_checkpoint(shipped, images_only)
 
 
 def test_training_with_the_rows_split_records_it(tiny_dataset):
