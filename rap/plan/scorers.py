@@ -58,44 +58,6 @@ class SimBackend(Protocol):
 
 
 class CnnBackend(Protocol):
-    def _spent(self, problem: PlanningProblem) -> float:
-        """Fresh simulations so far, a chunk counting its share of a full one."""
-        st = self.stats
-        if not st.chunk_trials:
-            return st.sim_run
-        return st.sim_run + st.chunk_trials / problem.params.trials
-
-    @property
-    def chunked(self) -> bool:
-        """Whether the simulator backend runs the chunks of sequential tests."""
-        return hasattr(self.simulator, "simulate_chunks")
-
-    def chunks(self, problem: PlanningProblem,
-               chunks: Sequence[tuple[Operation, int, int]]) -> list[CachedScore]:
-        """Each ``(op, index, trials)`` simulated as chunk ``index`` of ``op``'s sequential test
-        (``trials`` trials, its own seed), in input order; one backend call, not cached. A budget
-        of simulations counts ``trials / problem.params.trials`` of one per chunk."""
-        self._check_time()
-        chunks = list(chunks)
-        if not chunks:
-            return []
-        st, b = self.stats, self.budget
-        if b.max_simulations is not None and (self._spent(problem) + sum(n for _, _, n in chunks)
-                                              / problem.params.trials > b.max_simulations):
-            raise BudgetSpent(f"simulation budget of {b.max_simulations} spent")
-        self._progress(len(chunks))
-        t = time.perf_counter()
-        got = self.simulator.simulate_chunks(problem, chunks)
-        st.sim_seconds += time.perf_counter() - t
-        st.sim_calls += 1
-        if len(got) != len(chunks):
-            raise RuntimeError("simulator backend returned a wrong number of results")
-        st.chunk_runs += len(chunks)
-        st.chunk_trials += sum(c.trials for c in got)
-        st.sim_trials += sum(c.trials for c in got)
-        self._progress(0)
-        return list(got)
-
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
 
     def expected_score(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
