@@ -48,7 +48,7 @@ def blank_render(assembly, operation, params=None, size: int = 64):
 
 def assemblies(tmp: Path) -> list[str]:
     from rap.geometry.families import generate
-    from rap.geometry.generate import grid
+    from rap.geometry.families.simple import grid
     from rap.io import assembly_to_json
 
     (tmp / "grid100.json").write_text(json.dumps(assembly_to_json(grid(10))))

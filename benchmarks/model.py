@@ -4,7 +4,7 @@
         [--channels 16 32 64 64] [--hidden 256 128 64]
 
 Training: Adam steps on random uint8 image pairs in batches of 64 (what `rap-farm train` does per
-batch, without the data loading). Inference: ``Predictor.prob_high`` — one batch per planning step
+batch, without the data loading). Inference: ``TorchPredictor.prob_high`` — one batch per planning step
 holding all of the step's candidate operations — at several batch sizes.
 """
 
@@ -19,9 +19,9 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from rap.model.checkpoint import save_checkpoint
-from rap.model.cnn import ModelConfig, RobustnessCNN
-from rap.model.predict import Predictor
+from rap.model.network.checkpoint import save_checkpoint
+from rap.model.network.cnn import ModelConfig, RobustnessCNN
+from rap.model.inference.torch_engine import TorchPredictor
 
 
 def rate(fn, items_per_call: int, seconds: float) -> float:
@@ -72,7 +72,7 @@ def main() -> None:
         path = save_checkpoint(Path(tmp) / "bench.pt", model.cpu(), threshold=0.95,
                                data_fingerprint="benchmark", assemblies=[], image_stats={},
                                metrics={}, training={})
-        predictor = Predictor.load(path, device=args.device)
+        predictor = TorchPredictor.load(path, device=args.device)
     for n in (1, 4, 16, 64, 256, 1024):
         images = rng.integers(0, 256, (n, 2, 64, 64), dtype=np.uint8)
         r = rate(lambda: predictor.prob_high(images), n, args.seconds / 2)

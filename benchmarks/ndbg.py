@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from rap.geometry.generate import grid, random_tiling
+from rap.geometry.families.simple import grid, random_tiling
 from rap.geometry.ndbg import build_ndbg
 from rap.geometry.partitions import online_partitions
 

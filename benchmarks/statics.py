@@ -32,7 +32,7 @@ import numpy as np
 
 from rap.geometry.contacts import contact_table
 from rap.io import load_assembly
-from rap.plan.constraints import CellConstraints
+from rap.plan.cell.constraints import CellConstraints
 from rap.plan.graph import reachable
 from rap.plan.problem import PlanningProblem
 from rap.sim.params import SimParams

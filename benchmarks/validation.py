@@ -7,7 +7,7 @@ Prints, measured in one run on this machine:
   of 1,000 to 10,000 vertices: seconds of the batch check (``rap.geometry.batch``: numpy sweep,
   float filter, exact fallback) and of the pairwise exact loop (up to 2,000 vertices; beyond,
   extrapolated as q^2), and their ratio;
-* ``load_assembly`` (read + validate) of the 100-part grid (``rap.geometry.generate.grid(10)``) and of the largest file within the
+* ``load_assembly`` (read + validate) of the 100-part grid (``rap.geometry.families.simple.grid(10)``) and of the largest file within the
   bounds that this benchmark writes (10 star parts of 10,000 vertices: 100,000 vertices).
 
     python benchmarks/validation.py [--max-vertices 10000]
@@ -80,7 +80,7 @@ def main() -> None:
             t_pair = base[1] * (q / base[0]) ** 2
             note = " (extrapolated)"
         print(f"{q:>10} {t_batch:>9.2f} {t_pair:>11.2f} {t_pair / t_batch:>7.1f}{note}")
-    from rap.geometry.generate import grid
+    from rap.geometry.families.simple import grid
     from rap.io import assembly_to_json
 
     path = tmp / "grid100.json"

@@ -7,7 +7,7 @@ An assembly file is JSON::
 
 ``units`` names the unit of the coordinates (``rap-farm import`` writes the drawing's output unit,
 e.g. ``"mm"``); without it ``DEFAULT_UNITS`` (``"unit"``: the drawing's units, whatever they are).
-Like the name, it is metadata: not part of the geometry hash. Plans state it (``rap.plan.execution``).
+Like the name, it is metadata: not part of the geometry hash. Plans state it (``rap.plan.report.poses``).
 
 Coordinates are ``fractions.Fraction`` (read from the file's decimals, never through a binary
 float), so shared edges and touching contacts stay exact. Rings are normalised: outer boundaries

@@ -1,7 +1,7 @@
-"""A client of the planning service (``rap-farm serve``, ``rap.farm.serve``) on urllib (no ray).
+"""A client of the planning service (``rap-farm serve``, ``rap.service.http_app``) on urllib (no ray).
 
     doc, details = post_plan("http://127.0.0.1:8000", plan_body(path, "rap", seed=None), token=None)
-    result = PlanResult.from_json(doc, **details)        # rap.plan.result
+    result = PlanResult.from_json(doc, **details)        # rap.plan.report.result
 
 ``plan_body`` sends the assembly file's own JSON with its numbers written exactly as read (decimal
 text, never through binary floats), so the service plans exactly the geometry that
@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from rap.errors import InputError, ParameterError, RapError
-from rap.farm.api import DETAILS_HEADER
+from rap.service.api import DETAILS_HEADER
 
 __all__ = ["plan_body", "post_plan", "exact_json", "ServiceError"]
 
@@ -59,8 +59,8 @@ def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
               options: dict | None = None, constraints=None) -> bytes:
     """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``) or a
     drawing (.dxf, .svg: imported with the default options, as ``load_assembly`` does);
-    ``options``: the method's planner options (``rap.farm.api.PLANNER_OPTIONS``), those not None;
-    ``constraints``: the cell's ``rap.plan.constraints.CellConstraints`` (sent when active)."""
+    ``options``: the method's planner options (``rap.service.api.PLANNER_OPTIONS``), those not None;
+    ``constraints``: the cell's ``rap.plan.cell.constraints.CellConstraints`` (sent when active)."""
     path = Path(assembly_path)
     if path.suffix.lower() in (".dxf", ".svg"):  # a drawing: sent as the assembly it imports to
         from rap.io import assembly_to_json, load_assembly

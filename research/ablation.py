@@ -57,10 +57,10 @@ def main(argv=None) -> None:
 
     import numpy as np
 
-    from rap.model.data import RowStore
-    from rap.model.metrics import expected_calibration_error, pool_reliability
-    from rap.model.recipes import recipe
-    from rap.model.train import train
+    from rap.model.data.rows import RowStore
+    from rap.model.evaluation.metrics import expected_calibration_error, pool_reliability
+    from rap.model.training.recipes import recipe
+    from rap.model.training.train import train
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

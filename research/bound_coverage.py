@@ -25,10 +25,10 @@ Settings (``--settings``, comma-separated names; default: all below):
 * ``bN-cC[-gG][-tT][-uU][-oO][-aK][-p1]``: bound-driven search, ``--simulations N --upper U/100
   (default 1) --confidence C/100 [--gap G/100] [--trust T/100] [--optimism O/100]``, e.g.
   ``b40-c95-g5``; ``b200-c95-u0-o10`` is ``s200-o10``. With a gap the search goes on after its
-  choice settles, by the bounds, until within the gap (``rap.plan.search``, phase 2); ``-p1``:
+  choice settles, by the bounds, until within the gap (``rap.plan.search.planner``, phase 2); ``-p1``:
   phase 1 only, the gap only stopping it earlier (what every gap setting meant before phase 2,
   e.g. ``b200-c95-g5-u35-p1``, the default's numbers before it). ``-aK``: the per-assembly
-  score correction (``rap.plan.score_correction``) with prior strength K.
+  score correction (``rap.plan.search.score_correction``) with prior strength K.
 
 The bounds are ``--bounds`` (default the shipped ``rap/data/score_bounds.json``, fitted on the
 ``fresh`` set by ``research.score_bounds_calibration``: its coverage on ``fresh`` is in-sample,
@@ -60,8 +60,8 @@ _BOUND = re.compile(r"^b(\d+)-c(\d+)(?:-g(\d+))?(?:-t(\d+))?(?:-u(\d+))?(?:-o(\d
 
 def planner_of(setting: str, bounds):
     """The planner a setting name stands for (module doc)."""
-    from rap.plan.planners import SimPlanner
-    from rap.plan.search import SearchPlanner
+    from rap.plan.planners.base import SimPlanner
+    from rap.plan.search.planner import SearchPlanner
 
     if setting == "sim":
         return SimPlanner()
@@ -92,8 +92,8 @@ def optimum(problem, graph, truth) -> float:
 
 def replay(setting: str, name: str, tab: dict, bounds, problem, graph, best: float) -> dict:
     """One plan on the tables: its R against the optimum, its cost and its bound."""
-    from rap.plan.cache import ScoreCache
-    from rap.plan.scorers import Scorer
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.plan.scoring.scorer import Scorer
 
     scorer = Scorer(LookupSimulator(tab["truth"]), LookupCnn(tab["pred"], tab.get("phigh")),
                     ScoreCache())
@@ -128,11 +128,11 @@ def summary(rows: list[dict]) -> dict:
 def accuracy(tabs: dict, names) -> None:
     """The model's class accuracy (P(high) >= 0.5 against a score >= 0.95, as ``rap-farm score``)
     on every operation of each graph, beside the noise ceiling of those 100-trial scores
-    (``rap.model.metrics``); ``acc(p)``: the class of the expected score at 0.95 instead (as
+    (``rap.model.evaluation.metrics``); ``acc(p)``: the class of the expected score at 0.95 instead (as
     ``research.validation_tables.prediction_metrics``)."""
     import numpy as np
 
-    from rap.model.metrics import classification_metrics
+    from rap.model.evaluation.metrics import classification_metrics
 
     def row(keys_of):
         s = np.array([t for n in keys_of for t in tabs[n]["truth"].values()])
@@ -229,7 +229,7 @@ def main() -> None:
         figure({s: json.loads((a.out / f"{s}.json").read_text())["rows"]
                 for s in a.figure_sets.split(",")}, a.figure, a.chosen)
         return
-    from rap.model.score_bounds import load
+    from rap.model.calibration import load
     from rap.plan.graph import reachable
 
     bounds = load(a.bounds)

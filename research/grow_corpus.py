@@ -32,7 +32,7 @@ default. Everything it writes is under ``reports/grow/`` (git-ignored). Steps, i
   network, else ``--init`` is refused; calibrated on a tenth of the mix's assemblies).
 * ``measure``: per assembly of ``unseen`` (test) and ``fresh`` (the ten families' validation
   set) the class accuracy (P(high) >= 0.5 against a score >= 0.95, as ``rap-farm score``) beside
-  the noise ceiling of the 100-trial scores (``rap.model.metrics``), shipped vs fine-tuned, on
+  the noise ceiling of the 100-trial scores (``rap.model.evaluation.metrics``), shipped vs fine-tuned, on
   every operation of the graph; the truth and the shipped model's numbers are the cached tables
   ``reports/search-validation/{fresh,unseen}.pkl``, the fine-tuned model's are computed on exactly
   those operations (``research.validation_tables.predictions``). ``--plans``: also the replayed
@@ -139,18 +139,18 @@ def unsure(lo: float, hi: float) -> None:
     """``reports/grow/unsure``: the new rows the shipped model is least sure of or wrong on:
     P(high) in [``lo``, ``hi``] or its class (P(high) >= 0.5) not the label's (score >= 0.95).
     One CNN pass over the new rows (descriptors from the dataset's geometry, as
-    ``rap.model.evaluate.score_checkpoint``)."""
+    ``rap.model.evaluation.cross_validation.score_checkpoint``)."""
     import pyarrow.parquet as pq
 
     from rap.dataset import decode_images, shard_files
-    from rap.model.predict import Predictor
-    from rap.model.views import DatasetGeometry
+    from rap.model.inference.torch_engine import TorchPredictor
+    from rap.model.data.views import DatasetGeometry
 
     if UNSURE.exists():
         shutil.rmtree(UNSURE)
     shutil.copytree(DATASET / "_assemblies", UNSURE / "_assemblies")
     shutil.copyfile(DATASET / "_rapfarm.json", UNSURE / "_rapfarm.json")
-    pred = Predictor.load(SHIPPED, device="cpu")
+    pred = TorchPredictor.load(SHIPPED, device="cpu")
     geometry = DatasetGeometry(DATASET)
     kept = total = 0
     for f in shard_files(DATASET):
@@ -208,7 +208,7 @@ def _metrics(rows):
     """(rows, accuracy, ceiling) of (truth, P(high)) pairs, as ``rap-farm score``."""
     import numpy as np
 
-    from rap.model.metrics import classification_metrics
+    from rap.model.evaluation.metrics import classification_metrics
 
     s = np.array([t for t, _ in rows])
     ph = np.array([p for _, p in rows])
@@ -219,7 +219,7 @@ def _metrics(rows):
 
 def measure(model: Path, plans: bool, setting: str) -> None:
     """Shipped vs ``model`` on the cached tables of unseen and fresh (module doc)."""
-    from rap.model.inference import PredictorCnn
+    from rap.model.inference.operations import OperationPredictor
     from rap.plan.graph import reachable
     from research.validation_tables import assemblies_of, problem_of, saved_tables
 
@@ -229,7 +229,7 @@ def measure(model: Path, plans: bool, setting: str) -> None:
         tabs = saved_tables(ROOT / "reports" / "search-validation", split, names)
         t = time.perf_counter()
         ft = {}
-        cnn = PredictorCnn.load(model, engine="auto")
+        cnn = OperationPredictor.load(model, engine="auto")
         for n in names:  # as validation_tables.predictions, both numbers in one pass
             problem = problem_of(n)
             ops = [op for c in reachable(problem).values() for op in c]
@@ -265,7 +265,7 @@ def _plans(names, both: dict, setting: str) -> dict:
 
     from research.bound_coverage import optimum, replay
     from research.validation_tables import problem_of
-    from rap.model.score_bounds import load
+    from rap.model.calibration import load
     from rap.plan.graph import reachable
 
     bounds = load(None)

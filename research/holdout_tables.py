@@ -4,7 +4,7 @@
                                      [--mirror]
 
 Every ``holdout-NAME.pt`` (an assembly held out) and ``holdout-family-F.pt`` (a family held out)
-in MODELS_DIR is scored with ``rap-farm score`` semantics (``rap.model.evaluate.score_checkpoint``)
+in MODELS_DIR is scored with ``rap-farm score`` semantics (``rap.model.evaluation.cross_validation.score_checkpoint``)
 on the rows it did not see: accuracy, per-class accuracy, ECE and the noise ceiling (the agreement
 a perfect predictor of the true success rate would have with these 100-trial labels). Prints and
 writes two Markdown tables with their means (the ECE of the mean row is the mean of the folds').
@@ -27,7 +27,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--mirror", action="store_true", help="mirror test-time averaging")
     a = ap.parse_args()
-    from rap.model.evaluate import score_checkpoint
+    from rap.model.evaluation.cross_validation import score_checkpoint
 
     pct = lambda x: "–" if x != x else f"{100 * x:.1f}"  # noqa: E731
     text = []

@@ -61,11 +61,11 @@ def options_of(setting: str) -> tuple[str, dict]:
 def plan_once(path: Path, setting: str, cnn, seed: int = SEED) -> dict:
     """One cold plan of ``path`` with ``setting``: robustness, planning seconds, simulations."""
     from rap.io import load_assembly
-    from rap.plan.cache import ScoreCache
-    from rap.plan.local_simulator import LocalSimulator
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.plan.scoring.local_simulator import LocalSimulator
     from rap.plan.methods import make_planner
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import Scorer
+    from rap.plan.scoring.scorer import Scorer
     from rap.sim.params import SimParams
 
     method, options = options_of(setting)
@@ -100,10 +100,10 @@ def plan_once(path: Path, setting: str, cnn, seed: int = SEED) -> dict:
 
 
 def run(paths: list[Path], settings: list[str], out: Path, redo: set[str]) -> dict:
-    from rap.model.inference import PredictorCnn
+    from rap.model.inference.operations import OperationPredictor
 
     data = json.loads(out.read_text()) if out.exists() else {}
-    cnn = PredictorCnn.load(ROOT / "rap" / "data" / "default_model.pt", engine="auto")
+    cnn = OperationPredictor.load(ROOT / "rap" / "data" / "default_model.pt", engine="auto")
     for path in paths:
         rows = data.setdefault(path.stem, {})
         for setting in settings:

@@ -52,9 +52,9 @@ def search_counts(problem, truth: dict, pred: dict, r_opt: float,
     """``(R / r_opt, operations scored)`` of ``SearchPlanner`` without simulations, planning on
     ``pred`` (key -> predicted score) and judged by ``truth`` (key -> simulated score); exact
     search unless ``beam_width`` is given (then always the beam)."""
-    from rap.plan.cache import ScoreCache
-    from rap.plan.scorers import Scorer
-    from rap.plan.search import SearchPlanner
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.plan.scoring.scorer import Scorer
+    from rap.plan.search.planner import SearchPlanner
 
     planner = (SearchPlanner() if beam_width is None
                else SearchPlanner(beam_width=beam_width, max_operations=1))

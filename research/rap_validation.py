@@ -26,9 +26,9 @@ from research.validation_tables import ROOT, LookupCnn, LookupSimulator, assembl
 
 def replay(name: str, tab: dict, method: str) -> dict:
     """Robustness (simulator scores) and counts of one greedy plan on the tables."""
-    from rap.plan.cache import ScoreCache
-    from rap.plan.experiment import method_planner
-    from rap.plan.scorers import Scorer
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.experiment.run import method_planner
+    from rap.plan.scoring.scorer import Scorer
 
     problem = problem_of(name)
     scorer = Scorer(LookupSimulator(tab["truth"]), LookupCnn(tab["pred"], tab["phigh"]), ScoreCache())
@@ -51,12 +51,12 @@ def main() -> None:
     ap.add_argument("--cache", type=Path, default=ROOT / "reports" / "search-validation")
     ap.add_argument("--per-assembly", action="store_true")
     ap.add_argument("--round", type=int, help="candidates per subassembly per round of the "
-                    "best-first fallback [default: rap.plan.planners.FALLBACK_ROUND]")
+                    "best-first fallback [default: rap.plan.planners.base.FALLBACK_ROUND]")
     a = ap.parse_args()
     if a.round is not None:
-        import rap.plan.planners
+        import rap.plan.planners.base
 
-        rap.plan.planners.FALLBACK_ROUND = a.round
+        rap.plan.planners.base.FALLBACK_ROUND = a.round
     names = assemblies_of(a.set)
     tabs = pickle.loads((a.cache / f"{a.set}.pkl").read_bytes())
     missing = [n for n in names if n not in tabs or "phigh" not in tabs[n]]

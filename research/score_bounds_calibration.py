@@ -1,6 +1,6 @@
 """Fit the shipped model's score bounds (``rap/data/score_bounds.json``) on the ``fresh`` set.
 
-Split-conformal calibration (``rap.model.score_bounds.fit``): every operation of the AND/OR graph
+Split-conformal calibration (``rap.model.calibration.fit``): every operation of the AND/OR graph
 of each ``fresh`` assembly (one seed >= 200 of each generated family, ``datasets/splits.json``),
 its shipped-model expected score beside its simulated score, from the score tables of
 ``python -m research.search_validation --set fresh --trust none`` (cached in
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rap.model.score_bounds import DEFAULT_BINS, DEFAULT_PATH, fit, min_count, save
+from rap.model.calibration import DEFAULT_BINS, DEFAULT_PATH, fit, min_count, save
 from research.validation_tables import (ROOT, assemblies_of, model_of, problem_of,
                                         saved_tables)
 

@@ -35,16 +35,16 @@ def main() -> None:
             sys.exit(f"{spec}: expected LABEL=PATH[+PATH...] of existing checkpoints")
         specs.append((label, paths.split("+")))
 
-    from rap.model.data import RowStore
-    from rap.model.evaluate import group_metrics
-    from rap.model.predict import Predictor
+    from rap.model.data.rows import RowStore
+    from rap.model.evaluation.cross_validation import group_metrics
+    from rap.model.inference.torch_engine import TorchPredictor
 
     store = RowStore(a.dataset)
     images, probs = {}, {}
 
     def prob_high(path: str) -> np.ndarray:
         if path not in probs:
-            p = Predictor.load(path)
+            p = TorchPredictor.load(path)
             if p.view not in images:
                 images[p.view] = store.view(p.view).images
             im = images[p.view]

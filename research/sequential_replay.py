@@ -1,6 +1,6 @@
 """Sequential tests in the search, replayed on score tables: trials saved against plans changed.
 
-Replays ``SearchPlanner`` with and without ``sequential`` (``rap.plan.screening``) on the score
+Replays ``SearchPlanner`` with and without ``sequential`` (``rap.plan.search.screening``) on the score
 tables of ``research.search_validation`` (``research.validation_tables``: the model's expected
 scores and every operation's 100-trial label). A REPLAY, not the simulator: a full simulation is
 the table's label; a chunk of ``n`` trials is a binomial draw ``Binomial(n, label)`` from the
@@ -33,7 +33,7 @@ class BinomialChunks(LookupSimulator):
     """``LookupSimulator`` with chunks: ``Binomial(trials, label)`` from each chunk's seed."""
 
     def simulate_chunks(self, problem, chunks):
-        from rap.plan.cache import CachedScore
+        from rap.plan.scoring.cache import CachedScore
         from rap.seeds import chunk_seed
 
         out = []
@@ -48,9 +48,9 @@ def plan(tab: dict, problem, sequential: float | None, chunks: tuple[int, ...], 
          **options):
     """The default search's plan on the table (``sequential``: its error rate, None: off;
     ``options``: other search options)."""
-    from rap.plan.cache import ScoreCache
+    from rap.plan.scoring.cache import ScoreCache
     from rap.plan.methods import make_planner
-    from rap.plan.scorers import Scorer
+    from rap.plan.scoring.scorer import Scorer
     from rap.sim.sequential import SequentialTest
 
     planner = make_planner("search", sequential=sequential, **options)
@@ -80,7 +80,7 @@ def main() -> None:
     ap.add_argument("--options", default="", help="other search options, e.g. upper=1,gap=0")
     ap.add_argument("--cache", default=str(ROOT / "reports" / "search-validation"))
     a = ap.parse_args()
-    from rap.model.score_bounds import load
+    from rap.model.calibration import load
     from rap.plan.graph import dp_choice, reachable
 
     bounds = load()

@@ -128,12 +128,12 @@ def predictions(name: str, mirror: bool = False, model: Path | None = None,
                 what: str = "expected_score") -> dict:
     """key -> the hold-out model's (or ``model``'s) expected score (``what="prob_high"``: its
     P(high), what RAP acts on), for every operation of the graph."""
-    from rap.model.inference import PredictorCnn
+    from rap.model.inference.operations import OperationPredictor
     from rap.plan.graph import reachable
 
     problem = problem_of(name)
     ops = [op for c in reachable(problem).values() for op in c]
-    cnn = PredictorCnn.load(model or model_of(name), engine="auto", mirror=mirror)
+    cnn = OperationPredictor.load(model or model_of(name), engine="auto", mirror=mirror)
     return dict(zip([problem.key(op) for op in ops],
                     map(float, getattr(cnn, what)(problem, ops))))
 
@@ -157,7 +157,7 @@ def tables(name: str, dataset) -> dict:
     """{"pred": key -> expected score, "truth": key -> simulated score} for every operation."""
     import pyarrow.dataset as ds
 
-    from rap.plan.local_simulator import LocalSimulator
+    from rap.plan.scoring.local_simulator import LocalSimulator
     from rap.plan.graph import reachable
 
     problem = problem_of(name)
@@ -187,7 +187,7 @@ class LookupSimulator:
         self.truth = truth
 
     def simulate_many(self, problem, ops):
-        from rap.plan.cache import CachedScore
+        from rap.plan.scoring.cache import CachedScore
 
         return [CachedScore(self.truth[problem.key(op)], round(self.truth[problem.key(op)] * 100),
                             100) for op in ops]
@@ -209,17 +209,17 @@ class LookupCnn:
     def prob_high(self, problem, ops):
         return np.array([self.phigh[problem.key(op)] for op in ops])
 
-    def prob_high_and_expected(self, problem, ops):  # one CNN call, as PredictorCnn's
+    def prob_high_and_expected(self, problem, ops):  # one CNN call, as OperationPredictor's
         return self.prob_high(problem, ops), self.expected_score(problem, ops)
 
 
 def evaluate(name: str, tab: dict, trust: float | None, simulations: int,
              optimism: float = 0.0) -> tuple[float, int]:
     """(R / R optimal, simulations while planning) of search on the lookup tables."""
-    from rap.plan.cache import ScoreCache
+    from rap.plan.scoring.cache import ScoreCache
     from rap.plan.graph import dp_choice, reachable
-    from rap.plan.scorers import Scorer
-    from rap.plan.search import SearchPlanner
+    from rap.plan.scoring.scorer import Scorer
+    from rap.plan.search.planner import SearchPlanner
 
     problem = problem_of(name)
     graph = reachable(problem)

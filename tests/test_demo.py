@@ -24,7 +24,7 @@ def flat(text: str) -> str:
 @pytest.mark.slow
 def test_demo_runs_the_small_pipeline_then_the_shipped_model_against_sim_only(tmp_path):
     from rap.commands.plan import default_model_path
-    from rap.model.checkpoint import load_checkpoint
+    from rap.model.network.checkpoint import load_checkpoint
 
     out = tmp_path / "demo"
     env = {**os.environ, "RAY_AUTH_TOKEN": secrets.token_hex(32), "RAY_USAGE_STATS_ENABLED": "0",

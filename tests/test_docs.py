@@ -83,7 +83,7 @@ def test_links_parse() -> None:
             "```\n[f](g.md)\n```\n[h](#local)")
     assert links(text) == ["docs/A.md", "x.png", "B.md#sec", "#local"]
     assert _TEMPLATE.search("tests/plan/test_NAME.py") and _TEMPLATE.search("families/NAME.py")
-    assert not _TEMPLATE.search("rap/model/cnn.py") and not _TEMPLATE.search("tests/test_cli.py")
+    assert not _TEMPLATE.search("rap/model/network/cnn.py") and not _TEMPLATE.search("tests/test_cli.py")
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))

@@ -13,7 +13,7 @@ from rap.enumerate import (LABEL_BUDGET, TooManyOperations, count_operations, en
                            iter_operations, iter_sampled_operations, label_key, label_seed,
                            select_operations)
 from rap.geometry.exact import in_open_arc, primitive
-from rap.geometry.generate import grid as grid_of
+from rap.geometry.families.simple import grid as grid_of
 from rap.operation import Operation
 
 ASSEMBLIES = Path(__file__).resolve().parents[1] / "assemblies"

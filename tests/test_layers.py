@@ -1,4 +1,5 @@
-"""The package's import graph: layers import downward only, no cycles, ray only in rap.farm.
+"""The package's import graph: layers import downward only, no cycles, ray only in the orchestration
+layer (rap.farm, rap.service).
 
 Every ``import`` of a ``rap`` module counts, including those inside functions (a lazy import is
 still a dependency). The graph is read from the source with ``ast``; nothing is imported.
@@ -19,8 +20,9 @@ LAYERS = {
     "rap.assembly": 1, "rap.assembly_reader": 1, "rap.operation": 1,
     "rap.geometry": 2, "rap.io": 3, "rap.enumerate": 3,
     "rap.sim": 4, "rap.render": 4, "rap.dataset": 4,
-    "rap.model": 5, "rap.labelling": 5, "rap.plan": 6, "rap.farm": 7, "rap.commands": 8, "rap.cli": 9,
-    "rap.files": 0, "rap.client": 8, "rap.cad": 3,
+    "rap.model": 5, "rap.labelling": 5, "rap.plan": 6, "rap.experiment": 7,
+    "rap.farm": 8, "rap.service": 9, "rap.commands": 10, "rap.cli": 11,
+    "rap.files": 0, "rap.client": 10, "rap.cad": 3,
 }
 
 
@@ -80,9 +82,18 @@ def test_layers_import_downward_only():
     assert not bad, bad
 
 
-def test_only_the_farm_imports_ray():
+# the orchestration layer: the labelling farm and the planning service that runs on its pool
+ORCHESTRATION = ("rap.farm", "rap.service")
+# modules of the orchestration packages that must stay free of ray (imported by tests and the CLI
+# without starting anything)
+RAY_FREE = ("rap.service.api",)
+
+
+def test_only_the_orchestration_layer_imports_ray():
     users = {a for a, b in graph().edges if b == "ray"}
-    assert users and all(u.startswith("rap.farm") for u in users), users
+    assert users and all(u.startswith(ORCHESTRATION) for u in users), users
+    g = graph()
+    assert not [m for m in RAY_FREE if "ray" in nx.descendants(g, m)], RAY_FREE
 
 
 def test_the_package_never_imports_the_research_or_its_tests():
@@ -123,5 +134,5 @@ def test_no_module_imports_another_modules_private_names():
 
 def test_the_private_names_check_sees_a_private_import(tmp_path):
     src = tmp_path / "m.py"
-    src.write_text("from rap.plan.search import _helper, public\nfrom rap import __version__\n")
-    assert private_imports(src) == [("rap.plan.search", "_helper")]
+    src.write_text("from rap.plan.search.planner import _helper, public\nfrom rap import __version__\n")
+    assert private_imports(src) == [("rap.plan.search.planner", "_helper")]

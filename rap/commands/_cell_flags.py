@@ -1,9 +1,9 @@
 """The robot cell's flags, shared by ``rap-farm plan`` and ``rap-farm experiment``.
 
 ``BASE``, ``LINEAR``, ``DIRECTIONS``, ``GRAVITY``, ``FRICTION``, ``LAYERS``: the typer options
-(one home for their names; their help is ``rap.plan.cell_help.CELL_HELP``, which the service
+(one home for their names; their help is ``rap.plan.cell.help.CELL_HELP``, which the service
 and the page show too; docs/PLANNING.md, "Robot-cell constraints");
-``cell_constraints(...)`` reads them into a ``rap.plan.constraints.CellConstraints``, a bad value
+``cell_constraints(...)`` reads them into a ``rap.plan.cell.constraints.CellConstraints``, a bad value
 becoming one line naming its flag (exit 2); ``check_cell(cell, assemblies)`` checks them against
 the assemblies (``--base`` must name a part of each).
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import typer
 
-from rap.plan.cell_help import CELL_HELP
+from rap.plan.cell.help import CELL_HELP
 
 __all__ = ["BASE", "LINEAR", "DIRECTIONS", "GRAVITY", "FRICTION", "LAYERS", "cell_constraints",
            "check_cell"]
@@ -28,7 +28,7 @@ LAYERS = typer.Option(False, "--layers", help=CELL_HELP["layers"])
 def cell_constraints(base, linear, directions, gravity, friction, layers):
     """The ``CellConstraints`` of the flags' values; ``InputError`` naming the flag."""
     from rap.commands._flags import flags
-    from rap.plan.constraints import CellConstraints
+    from rap.plan.cell.constraints import CellConstraints
 
     with flags("base", "linear", "directions", "gravity", "friction", "layers"):
         return CellConstraints.parse(base, linear, directions, gravity, friction, layers)

@@ -1,7 +1,7 @@
 """Command-line options shared by ``train`` and ``evaluate``: a recipe and its overrides.
 
 Each ``*_OPTION`` is a typer option object used as a parameter default in both commands;
-``resolve`` turns the values into ``(ModelConfig, TrainConfig)`` (``rap.model.recipes``).
+``resolve`` turns the values into ``(ModelConfig, TrainConfig)`` (``rap.model.training.recipes``).
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ DESCRIPTORS_OPTION = typer.Option(
     None, "--descriptors",
     help="Override: geometric descriptors of each operation beside the images: 'all' (the "
          "removal range's width and margins from the exact NDBG, contacts, depth, sizes; "
-         "rap.model.descriptors), 'none' (both recipes: images only), or a comma-separated "
+         "rap.model.data.descriptors), 'none' (both recipes: images only), or a comma-separated "
          "list of their names.")
 
 VAL_BY_OPTION = typer.Option(None, "--val-by",
@@ -57,7 +57,7 @@ def resolve(recipe_name: str, channels: str | None = None, hidden: str | None = 
     ``channels``, ``hidden`` and ``descriptors`` are the options' text ("32,64,128,128",
     "all"). An unknown recipe is one line naming ``--recipe``."""
     from rap.commands._flags import flags
-    from rap.model.recipes import recipe
+    from rap.model.training.recipes import recipe
 
     if descriptors is not None:
         fields["descriptors"] = _descriptor_names(descriptors)
@@ -71,7 +71,7 @@ def resolve(recipe_name: str, channels: str | None = None, hidden: str | None = 
 
 def _descriptor_names(text: str) -> tuple[str, ...]:
     from rap.errors import InputError
-    from rap.model.descriptors import DESCRIPTORS
+    from rap.model.data.descriptors import DESCRIPTORS
 
     if text == "all":
         return DESCRIPTORS
@@ -98,7 +98,7 @@ def _widths(option: str, text: str, n: int, example: str) -> tuple[int, ...]:
 
 
 def describe(model_config, config) -> str:
-    from rap.model.cnn import RobustnessCNN
+    from rap.model.network.cnn import RobustnessCNN
 
     return (f"{RobustnessCNN(model_config).num_parameters():,} parameters, channels "
             f"{list(model_config.channels)}, hidden {list(model_config.hidden)}, norm "

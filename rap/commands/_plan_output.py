@@ -1,5 +1,5 @@
 """What ``rap-farm plan`` (and ``demo``) make of a plan: the ``--out`` document and the ``--csv``
-table (``rap.plan.execution.CSV_COLUMNS``), both written atomically with the umask's mode, and the
+table (``rap.plan.report.poses.CSV_COLUMNS``), both written atomically with the umask's mode, and the
 table printed with insertion directions, score intervals, reasons, R, timings and the planner's
 counters."""
 
@@ -29,8 +29,8 @@ def write_plan_json(result, path: Path) -> Path:
 
 def write_plan_csv(result, path: Path) -> Path:
     """Write a found plan's steps as CSV (header ``CSV_COLUMNS``, one row per step, assembly
-    order; ``rap.plan.execution.plan_rows``), atomically with the umask's mode."""
-    from rap.plan.execution import CSV_COLUMNS, plan_rows
+    order; ``rap.plan.report.poses.plan_rows``), atomically with the umask's mode."""
+    from rap.plan.report.poses import CSV_COLUMNS, plan_rows
 
     path = Path(path)
     buf = io.StringIO()
@@ -93,7 +93,7 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
     """The sequence as a rich table, R and timings."""
     from rich.table import Table
 
-    from rap.plan.result import PlanStatus
+    from rap.plan.report.result import PlanStatus
 
     if result.status is not PlanStatus.FOUND:
         console.print(f"[bold red]{result.status.value}[/]: {result.message}")
@@ -128,7 +128,7 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                  f"(shown: the sample closest to the mean)")
     console.print(line)
     if st.get("constraints"):
-        from rap.plan.constraints import CellConstraints
+        from rap.plan.cell.constraints import CellConstraints
 
         console.print(f"cell: {CellConstraints.from_json(st['constraints']).describe()}; "
                       f"{st.get('score_note', '')}")

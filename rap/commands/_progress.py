@@ -9,7 +9,7 @@ not a terminal (a pipe, a log file, a test) it shows nothing at all.
 
 ``Activity.update(text)`` sets the figures (``Activity.status(text)``: the same as a context manager,
 in the shape of ``rich.console.Console.status``); ``Activity.scorer_progress`` is the callback a
-``rap.plan.scorers.Scorer`` calls (``on_progress``) after each batch: operations scored by the
+``rap.plan.scoring.scorer.Scorer`` calls (``on_progress``) after each batch: operations scored by the
 model, simulated, taken from the score cache, and the batch being simulated now.
 """
 

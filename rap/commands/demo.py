@@ -2,7 +2,7 @@
 
 1. **The pipeline at small scale**, labelled as such: label a small dataset of the bundled
    assemblies on the local Ray (``rap.farm.driver``), train a small robustness CNN without the
-   demo assembly (``rap.model.train``) and evaluate it on that held-out assembly (accuracy and the
+   demo assembly (``rap.model.training.train``) and evaluate it on that held-out assembly (accuracy and the
    labels' noise ceiling). Minutes of data and training: it shows the steps, not the product.
 2. **The product**: ``rap-farm plan``'s default (``search`` with the shipped model) against
    simulator-only greedy (``--method sim``) on ``packing-s100`` (the packing family's seed 100,
@@ -71,7 +71,7 @@ def _small_scale(console, files, assembly, out, ops, trials, epochs, seed, worke
     epochs_text = f"{epochs} epoch" + ("s" if epochs != 1 else "")
     console.rule(f"2/4 train a small CNN without {assembly} ({epochs_text})")
     from rap.commands.train import progress_bar
-    from rap.model.train import TrainConfig, train
+    from rap.model.training.train import TrainConfig, train
 
     t = time.perf_counter()
     bar, on_step = progress_bar(console)
@@ -117,13 +117,13 @@ def _compare(console, out: Path, workers: int | None) -> tuple[dict, dict, float
     from rap.commands.plan import default_model_path
     from rap.geometry.families import generate
     from rap.io import assembly_to_json
-    from rap.model.inference import PredictorCnn
-    from rap.plan.familiarity import model_familiarity
+    from rap.model.inference.operations import OperationPredictor
+    from rap.plan.scoring.familiarity import model_familiarity
 
     asm = generate(*COMPARE)
     path = out / f"{asm.name}.json"
     path.write_text(json.dumps(assembly_to_json(asm)), encoding="utf-8")
-    meta = PredictorCnn.load(default_model_path(), engine="auto").meta
+    meta = OperationPredictor.load(default_model_path(), engine="auto").meta
     seen = model_familiarity(meta, asm.geometry_hash, np.zeros((0, 2, 64, 64), np.uint8))
     console.rule("4/4 the product: rap-farm plan's default against simulator-only greedy")
     console.print(f"{asm.name} ({len(asm)} parts, {path}): "

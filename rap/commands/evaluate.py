@@ -25,7 +25,7 @@ _NOT_GENERATED = ("reference", "custom")
 def plan_folds(dataset, by: str, assemblies: str | None, families: str | None):
     """[(kind, [test names])] for the dataset and options (see the module docstring)."""
     from rap.errors import InputError
-    from rap.model.trainset import dataset_families
+    from rap.model.training.trainset import dataset_families
 
     fams = dataset_families(dataset)
     all_names = sorted({a for v in fams.values() for a in v})
@@ -65,8 +65,8 @@ def _runner(no_ray: bool, device: str, console):
     """Ray tasks when allowed, available and useful (several cores or a cluster address, CPU
     training); otherwise the folds run one after the other in this process."""
     from rap.commands._flags import flags
-    from rap.model.evaluate import sequential_folds
-    from rap.model.predict import resolve_device
+    from rap.model.evaluation.cross_validation import sequential_folds
+    from rap.model.inference.torch_engine import resolve_device
 
     if no_ray:
         return sequential_folds, "in-process (--no-ray)"
@@ -123,7 +123,7 @@ def evaluate_command(
 
     from rap.commands._console import console as make_console
 
-    from rap.model.evaluate import cross_validate, fold_specs, summary_rows, write_report
+    from rap.model.evaluation.cross_validation import cross_validate, fold_specs, summary_rows, write_report
 
     console = make_console(stderr=True)
     name = Path(dataset).resolve().name
@@ -152,7 +152,7 @@ def evaluate_command(
                       f"on {m['rows']} rows ({f['seconds']:.0f} s)")
 
     from rap.commands._flags import flags
-    from rap.model.evaluate import sequential_folds
+    from rap.model.evaluation.cross_validation import sequential_folds
 
     if runner is sequential_folds:  # in this process: a progress bar per fold
         import functools

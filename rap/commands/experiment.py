@@ -53,10 +53,10 @@ def experiment_command(
     """Compare RAP, sim-only, optimal and random planning on every assembly (paper, section 8)."""
     from rap.io import load_assembly
     from rap.errors import InputError, ParameterError
-    from rap.model.trainset import dataset_assemblies
-    from rap.plan.experiment import (EXPERIMENT_METHODS, check_held_out, method_planner,
+    from rap.model.training.trainset import dataset_assemblies
+    from rap.experiment.run import (EXPERIMENT_METHODS, check_held_out, method_planner,
                                      run_experiment)
-    from rap.plan.experiment_report import write_report
+    from rap.experiment.report import write_report
 
     cell = cell_constraints(base, linear, directions, gravity, friction, layers)
     if not (Path(dataset) / "_rapfarm.json").is_file():
@@ -94,7 +94,7 @@ def experiment_command(
             raise InputError(f"{exc.for_name('--model')} (use --models for hold-out "
                              f"models)") from None
 
-    import rap.farm.service as service
+    import rap.service.planning as service
     from rap.farm.pool import SimPool
     from rap.farm.runtime import connect
 
@@ -119,7 +119,7 @@ def experiment_command(
                         else f"hold-out models from {models}"),
              "methods": ", ".join(wanted), "timing": "each method's search with a cold score cache"}
     if cell.active:
-        from rap.plan.constraints import SCORE_NOTE
+        from rap.plan.cell.constraints import SCORE_NOTE
 
         notes["cell constraints"] = f"{cell.describe()} ({SCORE_NOTE})"
     paths = write_report(rows, out, f"Planning experiment on {Path(dataset).name}", notes)

@@ -110,7 +110,7 @@ def register(app: typer.Typer) -> None:
                  size: int = typer.Option(10, "--size", min=1, help="Side of a square."),
                  output: Path = typer.Option(..., "-o", "--output", help="Output JSON file.")):
         """k x k grid of touching squares."""
-        from rap.geometry.generate import grid
+        from rap.geometry.families.simple import grid
 
         _write(grid(k, size), output)
 
@@ -121,7 +121,7 @@ def register(app: typer.Typer) -> None:
         """Random tiling: a jittered grid of convex quads."""
         import numpy as np
 
-        from rap.geometry.generate import random_tiling
+        from rap.geometry.families.simple import random_tiling
 
         _write(random_tiling(parts, np.random.default_rng(seed)), output)
 

@@ -2,18 +2,18 @@
 
 Where the work happens:
 
-* by default, in this process: the CNN runs without torch where it can (``rap.model.fastcnn``) and
+* by default, in this process: the CNN runs without torch where it can (``rap.model.inference.numpy_engine``) and
   a batch of eight or more simulations is spread over forked worker processes on this machine
   (``--workers``, default every CPU; ``LocalSimulator``), so a small plan takes a few seconds;
 * ``--address HOST:PORT|auto`` (or ``RAY_ADDRESS``, as in a Ray Job): on a Ray cluster, through a
-  planning actor and a pool of simulation actors (``rap.farm.service``);
+  planning actor and a pool of simulation actors (``rap.service.planning``);
 * ``--server URL``: by a running planning service (``rap-farm serve``), over HTTP (``rap.client``);
   the table, ``--out`` and ``--picture`` are the same as for a local plan.
 
 The same operation gets the same simulator seed everywhere, so scores do not depend on where they
 were computed. Exit status 0 with a plan, 1 when the assembly is interlocked (no sequence of
 one-step translations exists) or the cell's constraints (``--base``, ``--linear``,
-``--directions``, ``--gravity``: ``rap.plan.constraints``) block every sequence, 2 for invalid input (or a request the service refused), 3 when the
+``--directions``, ``--gravity``: ``rap.plan.cell.constraints``) block every sequence, 2 for invalid input (or a request the service refused), 3 when the
 service fails.
 
 ``plan_command`` runs three steps: ``_check_request`` (the method, the space and every planner
@@ -143,7 +143,7 @@ def plan_command(
     confidence: float = _method_flag("confidence"),
     gap: float = _method_flag("gap"),
     sequential: float = _method_flag("sequential"),
-    # the robot cell's constraints (rap.plan.constraints; docs/PLANNING.md, Robot-cell constraints)
+    # the robot cell's constraints (rap.plan.cell.constraints; docs/PLANNING.md, Robot-cell constraints)
     base: str = BASE, linear: bool = LINEAR, directions: list[str] = DIRECTIONS,
     gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
@@ -233,7 +233,7 @@ def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, serv
     anything with ``status(text)`` (the command's progress ``Activity``, or a rich console)."""
     from rap.client import ServiceError, plan_body, post_plan
     from rap.commands._flags import flags
-    from rap.plan.result import PlanResult
+    from rap.plan.report.result import PlanResult
 
     sent = {o.name: options[o.name] for o in METHODS[method].declared() if o.service and o.cli}
     body = plan_body(assembly, method, seed, sent, constraints=constraints)
@@ -257,7 +257,7 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
     ``$RAY_ADDRESS``), with the model (the shipped one by default) and the score cache.
     (result, whether on Ray); ``settings["cache"]`` becomes the cache file used, or None.
     ``console``: anything with ``status(text)``; the command passes its progress ``Activity``."""
-    from rap.plan.cache import default_cache_path
+    from rap.plan.scoring.cache import default_cache_path
     from rap.sim.params import SimParams
 
     params = SimParams(trials=settings["trials"])
@@ -272,7 +272,7 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
                           _local_workers(workers), err, options,
                           progress=console if hasattr(console, "scorer_progress") else None,
                           constraints=settings.get("constraints")), False
-    import rap.farm.service as service
+    import rap.service.planning as service
 
     if model_path is not None:
         _familiarity(asm, _load_cnn(model_path), space, err)
@@ -292,7 +292,7 @@ def _show(console, err, asm, result, wall: float, *, out, picture, server, on_ra
     """Step 3: the plan's table, ``--out``, ``--csv`` and ``--picture``; ``InfeasiblePlan``
     (exit 1) without a plan (the ``--out`` document still written for an interlocked assembly;
     no ``--csv``: it has no steps)."""
-    from rap.plan.result import PlanStatus
+    from rap.plan.report.result import PlanStatus
 
     if result.status is PlanStatus.INFEASIBLE:
         if out is not None:
@@ -310,9 +310,9 @@ def _show(console, err, asm, result, wall: float, *, out, picture, server, on_ra
 
 
 def _load_cnn(model_path: str):
-    from rap.model.inference import PredictorCnn
+    from rap.model.inference.operations import OperationPredictor
 
-    return PredictorCnn.load(model_path, engine="auto")
+    return OperationPredictor.load(model_path, engine="auto")
 
 
 def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, workers, err,
@@ -320,12 +320,12 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
     """Plan in this process; simulation batches over ``workers`` forked processes; ``options``:
     ``make_planner``'s (None: the default); ``progress``: an ``Activity`` told what happens."""
     from rap.commands._progress import activity
-    from rap.plan.cache import ScoreCache
+    from rap.plan.scoring.cache import ScoreCache
     from rap.plan.methods import make_planner
-    from rap.plan.constraints import CellConstraints
+    from rap.plan.cell.constraints import CellConstraints
     from rap.plan.problem import PlanningProblem
-    from rap.plan.local_simulator import LocalSimulator
-    from rap.plan.scorers import Scorer
+    from rap.plan.scoring.local_simulator import LocalSimulator
+    from rap.plan.scoring.scorer import Scorer
 
     # simulation workers first: they load the simulator while this process loads the model,
     # renders and scores (see LocalSimulator's prestart)
@@ -357,7 +357,7 @@ def _familiarity(asm, cnn, space: str, err, problem=None) -> None:
     """Warn when ``asm`` is far from what the model was trained on (checkpoint metadata)."""
     try:
         from rap.plan.problem import PlanningProblem
-        from rap.plan.familiarity import familiarity_operations, model_familiarity
+        from rap.plan.scoring.familiarity import familiarity_operations, model_familiarity
         from rap.sim.params import SimParams
 
         problem = problem or PlanningProblem(asm, SimParams(), space=space)

@@ -28,7 +28,7 @@ def score_command(
     from rap.commands._console import console as make_console
     from rap.commands._flags import flags
     from rap.errors import InputError
-    from rap.model.evaluate import score_checkpoint
+    from rap.model.evaluation.cross_validation import score_checkpoint
 
     if by not in ("assembly", "family"):
         raise InputError(f"--by {by!r}: assembly or family")

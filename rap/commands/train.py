@@ -115,7 +115,7 @@ def train_command(
     from rap.commands._console import console as make_console
     from rap.commands._flags import flags
 
-    from rap.model.train import train
+    from rap.model.training.train import train
 
     out = out or Path("models") / f"{Path(dataset).resolve().name}.pt"
     model_config, config = resolve(recipe, epochs=epochs, batch_size=batch_size, seed=seed,

@@ -127,7 +127,7 @@ def write_meta(root: str | Path, meta: DatasetMeta) -> None:
 def write_geometry(root: str | Path, assemblies: Iterable) -> int:
     """Keep each assembly's geometry beside the rows, as ``GEOMETRY_DIR/NAME.json`` (canonical
     JSON, atomically; readers skip ``_`` paths), so that views and descriptors can be made again
-    from the dataset alone (``rap.model.views``). A file that holds the same geometry is left as
+    from the dataset alone (``rap.model.data.views``). A file that holds the same geometry is left as
     it is. Returns how many files were written. Cost: one small file per assembly."""
     from rap.io import load_assembly
     from rap.assembly import AssemblyError, assembly_to_json

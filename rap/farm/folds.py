@@ -1,6 +1,6 @@
 """Cross-validation folds as parallel Ray tasks.
 
-Each fold (``rap.model.evaluate.run_fold`` over a plain-dict spec) is one task of ``num_cpus=1``
+Each fold (``rap.model.evaluation.cross_validation.run_fold`` over a plain-dict spec) is one task of ``num_cpus=1``
 training with one torch thread, so a machine with k cores runs k folds at once. At most as many
 tasks are in flight as the cluster has CPUs (``ray.wait``). Workers read the dataset and write the
 fold checkpoints by path: on a multi-node cluster the dataset and models directories must be on
@@ -21,7 +21,7 @@ __all__ = ["ray_folds"]
 def _fold(spec: dict) -> dict:
     import torch
 
-    from rap.model.evaluate import run_fold
+    from rap.model.evaluation.cross_validation import run_fold
 
     torch.set_num_threads(1)
     return run_fold(spec)

@@ -14,7 +14,7 @@ geometric graph of an NDBG's partitions below it.
   (``best`` of a single part 1, of a dead end 0) for every subassembly, smallest first, and the
   first maximising candidate of each; ``dp_tree`` the decomposition tree that choice picks below
   the whole; ``dead_end`` the subassembly to blame when no sequence exists. O(operations).
-  ``rap.plan.bounded_dp`` gives the same choice by branch and bound, scoring fewer operations.
+  ``rap.plan.dp`` gives the same choice by branch and bound, scoring fewer operations.
 * ``assembly_order(choice, whole)``: a decomposition tree's steps in assembly order (children
   before parents).
 * ``Interlocked`` (a planner met a subassembly with no way on; ``subset`` names it) and
@@ -37,7 +37,7 @@ from rap.operation import Operation
 
 if TYPE_CHECKING:
     from rap.plan.problem import PlanningProblem
-    from rap.plan.result import PlanStep
+    from rap.plan.report.result import PlanStep
 
 __all__ = ["Graph", "Tree", "Interlocked", "TooLarge", "reachable", "dp_choice", "dp_tree",
            "dead_end", "assembly_order", "argmax_first"]

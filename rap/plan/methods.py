@@ -1,13 +1,13 @@
 """The planning methods: each one's options, planner and needs, in one place; the registry.
 
-A method is one frozen options dataclass (``rap.plan.options.PlannerOptions``) registered here:
+A method is one frozen options dataclass (``rap.plan.planners.options.PlannerOptions``) registered here:
 its options with their types, defaults, ranges and help, its name in experiment tables, whether it
 needs a model, and ``build()``, its planner. Everything that takes a method reads this registry
 (``METHODS``, name -> options class, in the order of ``--method``'s choices):
 
 * ``make_planner(name, **options)``: the CLI, the planning service and the experiment plan with it;
 * ``rap-farm plan`` makes its flags of the options, the service accepts them in a request's
-  ``options`` (``rap.farm.api``), and both ask ``needs_model``;
+  ``options`` (``rap.service.api``), and both ask ``needs_model``;
 * the experiment names planners ``rap-k2-p90``, ``search-s200-o10`` (``from_table_name``).
 
 Adding a method is one options class with ``@register`` (docs/EXTENDING.md). Keeping the registry
@@ -20,10 +20,10 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from rap.errors import ParameterError
-from rap.plan.options import Option, PlannerOptions, option
-from rap.plan.planners import (HIGH_PROBABILITY, OptimalPlanner, Planner, RandomPlanner,
+from rap.plan.planners.options import Option, PlannerOptions, option
+from rap.plan.planners.base import (HIGH_PROBABILITY, OptimalPlanner, Planner, RandomPlanner,
                                RapPlanner, SimPlanner)
-from rap.plan.search import (DEFAULT_BEAM, DEFAULT_CONFIDENCE, DEFAULT_MAX_OPERATIONS,
+from rap.plan.search.planner import (DEFAULT_BEAM, DEFAULT_CONFIDENCE, DEFAULT_MAX_OPERATIONS,
                              SearchPlanner)
 
 __all__ = ["METHODS", "DEFAULT_METHOD", "make_planner", "register", "unregister",

@@ -1,7 +1,7 @@
 """The planning problem: an assembly, its operation space, and how operations are scored.
 
 A ``PlanningProblem`` says *what* is to be planned, never *how* (the planners) or *whether a plan
-is valid* (``rap.plan.validate``), in the manner of OMPL's ``ProblemDefinition``:
+is valid* (``rap.plan.report.validate``), in the manner of OMPL's ``ProblemDefinition``:
 
 * ``assembly``: the parts in their final placements;
 * ``space``: which operations a subassembly offers. ``"online"`` is RAP's choice (one partition per
@@ -18,8 +18,8 @@ is valid* (``rap.plan.validate``), in the manner of OMPL's ``ProblemDefinition``
 
 ``candidates(subset)`` returns the operations that assemble ``subset`` from two of its subsets
 (deduplicated by content key, in the partition function's order) that obey the problem's
-``constraints`` (``rap.plan.constraints.CellConstraints``: fixture, one arm, insertion cones,
-gravity; applied by ``rap.plan.cell``, so every planner obeys them); an empty tuple means the
+``constraints`` (``rap.plan.cell.constraints.CellConstraints``: fixture, one arm, insertion cones,
+gravity; applied by ``rap.plan.cell.rules``, so every planner obeys them); an empty tuple means the
 subset is interlocked or blocked by the constraints. ``splits(subset)`` gives every operation
 without the constraints, with its ``Partition`` (None from a ``partition_fn``); ``stability``
 the memoised static check of a subassembly (``stability_fn``, default
@@ -39,8 +39,8 @@ from rap.assembly import Assembly
 from rap.enumerate import label_key, label_seed
 from rap.errors import ParameterError
 from rap.operation import Operation
-from rap.plan.constraints import CellConstraints
-from rap.plan.result import shrink_interlocked
+from rap.plan.cell.constraints import CellConstraints
+from rap.plan.report.result import shrink_interlocked
 from rap.seeds import DEFAULT_ROOT_SEED
 
 __all__ = ["SPACES", "check_space", "PlanningProblem", "PartitionFn", "StabilityFn",
@@ -92,7 +92,7 @@ class PlanningProblem:
     _splits: dict = field(default_factory=dict, init=False, repr=False)
     _stable: dict = field(default_factory=dict, init=False, repr=False)
     _ndbg_fns: dict = field(default_factory=dict, init=False, repr=False)  # one_part -> fn
-    cell_memo: dict = field(default_factory=dict, init=False, repr=False)  # rap.plan.cell's
+    cell_memo: dict = field(default_factory=dict, init=False, repr=False)  # rap.plan.cell.rules's
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
     def __post_init__(self):
@@ -161,7 +161,7 @@ class PlanningProblem:
             if hit is not None:
                 return hit
         if self.constraints.active:
-            from rap.plan.cell import constrained_candidates
+            from rap.plan.cell.rules import constrained_candidates
 
             ops = constrained_candidates(self, subset, self.constraints)
         else:
@@ -195,6 +195,6 @@ class PlanningProblem:
 
 def minimal_interlocked(problem: PlanningProblem, subset: Iterable[str]) -> frozenset[str]:
     """Shrink an interlocked ``subset`` to an inclusion-minimal interlocked one by dropping parts
-    one at a time while the rest stays interlocked (``rap.plan.result.shrink_interlocked``).
+    one at a time while the rest stays interlocked (``rap.plan.report.result.shrink_interlocked``).
     O(n^2) candidate queries."""
     return shrink_interlocked(subset, problem.is_interlocked)

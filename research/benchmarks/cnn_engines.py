@@ -1,4 +1,4 @@
-"""The CNN's two inference engines under search: numpy (``rap.model.fastcnn``) against torch.
+"""The CNN's two inference engines under search: numpy (``rap.model.inference.numpy_engine``) against torch.
 
 ``rap-farm plan`` in a fresh process uses the numpy engine (no 2.5 s torch import); the planning
 service and ``rap-farm experiment`` load torch once. This plans each assembly with ``search``
@@ -28,17 +28,17 @@ def main() -> None:
     args = ap.parse_args()
 
     from rap.io import load_assembly
-    from rap.plan.cache import ScoreCache
-    from rap.plan.experiment import dataset_params
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.experiment.run import dataset_params
     from rap.plan.problem import PlanningProblem
-    from rap.model.inference import PredictorCnn
-    from rap.plan.scorers import Scorer
-    from rap.plan.search import SearchPlanner
+    from rap.model.inference.operations import OperationPredictor
+    from rap.plan.scoring.scorer import Scorer
+    from rap.plan.search.planner import SearchPlanner
     from research.benchmarks.search import NoSimulator
 
     params, seed = dataset_params(args.dataset)
-    engines = {"numpy": PredictorCnn.load(args.model, engine="auto"),
-               "torch": PredictorCnn.load(args.model, engine="torch")}
+    engines = {"numpy": OperationPredictor.load(args.model, engine="auto"),
+               "torch": OperationPredictor.load(args.model, engine="torch")}
     assert getattr(engines["numpy"].predictor, "engine", None) == "numpy", "not a fastcnn model"
     totals = dict.fromkeys(engines, 0.0)
     print(f"{'assembly':16s} " + " ".join(f"{e:>7s}" for e in engines) + "   (s, search only)")

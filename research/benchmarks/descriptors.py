@@ -3,7 +3,7 @@
     python -m research.benchmarks.descriptors [--repeats 3]
 
 For every online operation of the six reference assemblies (middle directions): the descriptors of
-``rap.model.descriptors`` (a fresh ``DescriptorContext`` per assembly, its NDBG included, as a
+``rap.model.data.descriptors`` (a fresh ``DescriptorContext`` per assembly, its NDBG included, as a
 planner pays it once per assembly) against ``rap.render.images.render_pair``, the images every model
 takes. Interleaved repeats; prints milliseconds per operation and the ratio.
 """
@@ -17,7 +17,7 @@ from pathlib import Path
 import rap
 from rap.enumerate import enumerate_operations
 from rap.io import load_assembly
-from rap.model.descriptors import DescriptorContext, descriptors_for
+from rap.model.data.descriptors import DescriptorContext, descriptors_for
 from rap.render.images import render_pair
 
 NAMES = ("hexagon", "mixed-square", "pentagons", "rectilinear", "grid", "triangles")

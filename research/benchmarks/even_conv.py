@@ -1,7 +1,7 @@
 """Convolutions that skip the rows the pooling drops: the forward pass with and without, one run.
 
 Both inference engines compute only the even rows and columns of each convolution's output that
-the floor 2x2 max-pooling reads (``rap.model.cnn._even_conv``, ``rap.model.fastcnn._conv_nhwc``).
+the floor 2x2 max-pooling reads (``rap.model.network.cnn._even_conv``, ``rap.model.inference.numpy_engine._conv_nhwc``).
 This times the shipped network both ways, interleaved (the best of seven passes over 256 pairs per
 batch size), and prints ms per operation and the ratio, with the largest difference of the logits.
 
@@ -34,14 +34,14 @@ def main() -> None:
     import numpy as np
     import torch
 
-    import rap.model.fastcnn as fastcnn
-    from rap.model.predict import Predictor
+    import rap.model.inference.numpy_engine as fastcnn
+    from rap.model.inference.torch_engine import TorchPredictor
 
     rng = np.random.default_rng(0)
     images = (rng.random((256, 2, 64, 64)) < 0.3).astype(np.uint8) * 255
     descriptors = rng.random((256, 12)).astype(np.float32)
 
-    fast = fastcnn.load_fast_predictor(args.model)
+    fast = fastcnn.load_numpy_predictor(args.model)
     even_conv = fastcnn._conv_nhwc
 
     def numpy_full(x, d):
@@ -51,7 +51,7 @@ def main() -> None:
         finally:
             fastcnn._conv_nhwc = even_conv
 
-    net = Predictor.load(args.model).model.eval()
+    net = TorchPredictor.load(args.model).model.eval()
     k = len(net.config.descriptors)
 
     def torch_even(x, d):

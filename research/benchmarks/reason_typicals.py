@@ -1,4 +1,4 @@
-"""The typical values behind the step reasons' rule (``rap.plan.reasons.TYPICAL``).
+"""The typical values behind the step reasons' rule (``rap.plan.report.reasons.TYPICAL``).
 
     python -m research.benchmarks.reason_typicals
 
@@ -19,7 +19,7 @@ import numpy as np
 import rap
 from rap.enumerate import enumerate_operations
 from rap.io import load_assembly
-from rap.model.descriptors import DESCRIPTORS, DescriptorContext
+from rap.model.data.descriptors import DESCRIPTORS, DescriptorContext
 
 NAMES = ("hexagon", "mixed-square", "pentagons", "rectilinear", "grid", "triangles")
 

@@ -1,7 +1,7 @@
 """Search's exact mode: scoring lazily (branch and bound) against scoring the whole graph first.
 
 For each assembly, ``SearchPlanner`` without simulations plans with the same CNN, alternately with
-``lazy=True`` (``rap.plan.bounded_dp``: a subassembly's candidates are rendered and scored only
+``lazy=True`` (``rap.plan.dp``: a subassembly's candidates are rendered and scored only
 when it can still matter, one batch per subassembly) and ``lazy=False`` (the whole graph in one
 batch, then the same DP), ``--repeats`` times each, interleaved; the plans must be identical.
 Prints per assembly the operations scored and the median planning times, and the ratio of the
@@ -42,14 +42,14 @@ def main() -> None:
     a = ap.parse_args()
 
     from rap.io import load_assembly
-    from rap.plan.cache import ScoreCache
+    from rap.plan.scoring.cache import ScoreCache
     from rap.plan.problem import PlanningProblem
-    from rap.model.inference import PredictorCnn
-    from rap.plan.scorers import Scorer
-    from rap.plan.search import SearchPlanner
+    from rap.model.inference.operations import OperationPredictor
+    from rap.plan.scoring.scorer import Scorer
+    from rap.plan.search.planner import SearchPlanner
     from rap.sim.params import SimParams
 
-    cnn = PredictorCnn.load(a.model, engine="auto")
+    cnn = OperationPredictor.load(a.model, engine="auto")
     dirs = [ROOT / "assemblies", ROOT / "assemblies" / "unseen",
             ROOT / "datasets" / "corpus" / "_assemblies"]
     totals = {True: 0.0, False: 0.0}

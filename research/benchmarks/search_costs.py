@@ -4,9 +4,9 @@ Part 1 (``--profile``, default on): plans each assembly with ``search-s200-o10``
 model, two forked simulation workers, a cold score cache) with timers around the renderer, the
 CNN's forward passes, the simulator and candidate enumeration; prints seconds per phase.
 
-Part 2: the CNN's cost per operation by batch size (``Predictor`` on this machine, measured here)
+Part 2: the CNN's cost per operation by batch size (``TorchPredictor`` on this machine, measured here)
 and the renderer's per operation; then, with every operation's prediction computed once, the
-branch and bound of ``rap.plan.bounded_dp`` replayed under three scoring orders, reporting the
+branch and bound of ``rap.plan.dp`` replayed under three scoring orders, reporting the
 operations scored, the batches and the model time they would cost under the measured table:
 
 - ``lazy``: one batch per subassembly visited (what ``SearchPlanner`` does);
@@ -44,14 +44,14 @@ def _timed(obj, attr: str, totals: dict, label: str) -> None:
 
 
 def profile(names, assemblies, params, seed, model) -> None:
-    from rap.plan.cache import ScoreCache
-    from rap.plan.experiment import method_planner
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.experiment.run import method_planner
     from rap.plan.problem import PlanningProblem
-    from rap.model.inference import PredictorCnn
-    from rap.plan.local_simulator import LocalSimulator
-    from rap.plan.scorers import Scorer
+    from rap.model.inference.operations import OperationPredictor
+    from rap.plan.scoring.local_simulator import LocalSimulator
+    from rap.plan.scoring.scorer import Scorer
 
-    cnn = PredictorCnn.load(model)
+    cnn = OperationPredictor.load(model)
     sim = LocalSimulator(processes=2, prestart=True)
     totals: dict = {}
     _timed(sim, "simulate_many", totals, "simulate")
@@ -88,9 +88,9 @@ def costs(model, problem, ops) -> tuple[dict, float]:
     rendering the images and, for a model that takes them, computing the descriptors)."""
     import numpy as np
 
-    from rap.model.inference import PredictorCnn
+    from rap.model.inference.operations import OperationPredictor
 
-    cnn = PredictorCnn.load(model)
+    cnn = OperationPredictor.load(model)
     cnn._inputs(problem, ops[:8])
     t = time.perf_counter()
     images, desc = cnn._inputs(problem, ops[:256])
@@ -118,7 +118,7 @@ def costs(model, problem, ops) -> tuple[dict, float]:
 
 def replay(graph, problem, pred, strategy):
     """(operations scored, batch sizes, best) of the bounded DP under a scoring order."""
-    from rap.plan.bounded_dp import dp_choice_bounded
+    from rap.plan.dp import dp_choice_bounded
 
     key = problem.key
     known: set = set()
@@ -155,9 +155,9 @@ def main() -> None:
     args = ap.parse_args()
 
     from rap.io import load_assembly
-    from rap.plan.experiment import dataset_params
+    from rap.experiment.run import dataset_params
     from rap.plan.problem import PlanningProblem
-    from rap.model.inference import PredictorCnn
+    from rap.model.inference.operations import OperationPredictor
     from rap.plan.graph import reachable
 
     folder = ROOT / "assemblies" / "unseen"
@@ -167,7 +167,7 @@ def main() -> None:
     if not args.no_profile:
         profile(names, assemblies, params, seed, args.model)
 
-    cnn = PredictorCnn.load(args.model)
+    cnn = OperationPredictor.load(args.model)
     fwd = render = None
     totals: dict = {}
     print("\nbranch and bound replayed: operations scored, batches, model seconds (estimated)")

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from rap.model.score_bounds import ScoreBounds
-from rap.plan.planners import SimPlanner
-from rap.plan.search import SearchPlanner
+from rap.model.calibration import ScoreBounds
+from rap.plan.planners.base import SimPlanner
+from rap.plan.search.planner import SearchPlanner
 
 from research.bound_coverage import planner_of
 

@@ -56,7 +56,7 @@ def overlapping(tmp_path) -> str:
 def big_grid(tmp_path) -> str:
     """A 6 x 6 grid of squares: its operation space is far beyond the uncapped budget."""
     from rap.assembly import assembly_to_json
-    from rap.geometry.generate import grid
+    from rap.geometry.families.simple import grid
 
     p = tmp_path / "grid6.json"
     p.write_text(json.dumps(assembly_to_json(grid(6))))

@@ -9,7 +9,7 @@ import pytest
 
 from rap.assembly import assembly_to_json
 from rap.dataset import open_dataset
-from rap.geometry.generate import grid
+from rap.geometry.families.simple import grid
 
 from tests.farm.conftest import ASSEMBLIES, FAKE, REAL
 

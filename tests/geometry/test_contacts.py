@@ -16,7 +16,7 @@ from rap.assembly import Assembly, Part
 from rap.geometry.contacts import (Contact, contact_segments, contact_table, contacts_within,
                                    touching)
 from rap.geometry.families import generate
-from rap.geometry.generate import random_tiling
+from rap.geometry.families.simple import random_tiling
 from tests.geometry.fixtures import (CORNER_TOUCH, FAR_APART, FRAMED, GRID3, TWO_SIDE_BY_SIDE,
                                      make, square)
 

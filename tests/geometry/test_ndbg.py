@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rap.geometry.exact import angle_key, in_open_arc
-from rap.geometry.generate import random_tiling
+from rap.geometry.families.simple import random_tiling
 from rap.geometry.ndbg import (blocked_at, build_ndbg, cell_at, cell_index,
                                is_feasible_operation)
 

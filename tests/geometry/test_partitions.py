@@ -126,7 +126,7 @@ def _networkx_choice(cell, idx):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_online_matches_networkx_per_cell(seed):
-    from rap.geometry.generate import random_tiling
+    from rap.geometry.families.simple import random_tiling
 
     rng = np.random.default_rng(seed)
     asm = random_tiling(12, rng)
@@ -150,7 +150,7 @@ def test_online_matches_networkx_per_cell(seed):
 def test_all_partitions_match_brute_force(seed):
     from itertools import combinations
 
-    from rap.geometry.generate import random_tiling
+    from rap.geometry.families.simple import random_tiling
 
     asm = random_tiling(6, np.random.default_rng(seed))
     nd = build_ndbg(asm)
@@ -170,7 +170,7 @@ def test_all_partitions_match_brute_force(seed):
 def test_single_part_partitions_are_all_partitions_moving_one_part(seed):
     """Per cell, the parts that can leave alone (brute force over the cell's blocking pairs),
     for the whole and for a subset; every range holds its cells and nothing else."""
-    from rap.geometry.generate import random_tiling
+    from rap.geometry.families.simple import random_tiling
 
     asm = random_tiling(6, np.random.default_rng(seed))
     nd = build_ndbg(asm)

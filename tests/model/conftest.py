@@ -3,7 +3,7 @@
 import pytest
 import torch
 
-from model_fixtures import write_synthetic
+from tests.model.model_fixtures import write_synthetic
 
 
 @pytest.fixture(autouse=True)

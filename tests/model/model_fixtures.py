@@ -14,8 +14,8 @@ import numpy as np
 import torch
 
 from rap.dataset import DatasetMeta, SCHEMA_VERSION, rows_to_table, write_meta, write_shard
-from rap.model.cnn import ModelConfig
-from rap.model.train import TrainConfig
+from rap.model.network.cnn import ModelConfig
+from rap.model.training.train import TrainConfig
 
 TINY_MODEL = ModelConfig(channels=(4, 8, 8, 8), hidden=(32, 16, 8), dropout=0.1)
 # big enough to learn the synthetic rule from any seed (mean held-out accuracy 0.95-0.98 over

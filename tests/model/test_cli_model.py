@@ -6,7 +6,7 @@ import pytest
 from typer.testing import CliRunner
 
 from rap.cli import app, main
-from rap.model.predict import Predictor
+from rap.model.inference.torch_engine import TorchPredictor
 
 
 def test_train_command_writes_a_loadable_checkpoint(tiny_dataset, tmp_path):
@@ -16,7 +16,7 @@ def test_train_command_writes_a_loadable_checkpoint(tiny_dataset, tmp_path):
                                    "--batch-size", "32"])
     assert res.exit_code == 0, res.output
     assert "holdout beta: accuracy" in res.output and f"wrote {out}" in res.output
-    p = Predictor.load(out)
+    p = TorchPredictor.load(out)
     assert p.training["config"]["seed"] == 3 and p.training["holdout"] == "beta"
     wide = tmp_path / "models" / "wide.pt"
     res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(wide), "--epochs", "1",
@@ -25,14 +25,14 @@ def test_train_command_writes_a_loadable_checkpoint(tiny_dataset, tmp_path):
     assert res.exit_code == 0, res.output
     assert "channels [8, 8, 16, 16]" in res.output
     assert "hidden [48, 24, 12]" in res.output
-    assert Predictor.load(wide).config.channels == (8, 8, 16, 16)
-    assert Predictor.load(wide).config.hidden == (48, 24, 12)
+    assert TorchPredictor.load(wide).config.channels == (8, 8, 16, 16)
+    assert TorchPredictor.load(wide).config.hidden == (48, 24, 12)
     tuned = tmp_path / "models" / "tuned.pt"
     res = CliRunner().invoke(app, ["train", str(tiny_dataset), "--out", str(tuned), "--epochs", "1",
                                    "--device", "cpu", "--init", str(out), "--lr", "1e-4"])
     assert res.exit_code == 0, res.output
     assert f"starting from {out}" in res.output
-    init = Predictor.load(tuned).training["init"]
+    init = TorchPredictor.load(tuned).training["init"]
     assert init["path"] == str(out) and init["data_fingerprint"] == p.data_fingerprint
     assert init["command"] == p.training["command"]
 
@@ -143,18 +143,18 @@ def test_checkpoint_carries_its_provenance(family_dataset, tmp_path):
     res = CliRunner().invoke(app, ["train", str(family_dataset), "--out", str(out), "--epochs",
                                    "1", "--device", "cpu", "--recipe", "paper", "--seed", "4"])
     assert res.exit_code == 0, res.output
-    t = Predictor.load(out).training
+    t = TorchPredictor.load(out).training
     assert t["command"].startswith("rap-farm") and t["config"]["seed"] == 4
     assert t["model_config"]["head"] == "class" and t["code_version"]
     c = t["corpus"]
     assert c["rows"] == 5 * 96 and c["schema_version"] == 2 and c["root_seed"] == 2
     assert len(c["training_rows_fingerprint"]) == 64
-    assert c["training_rows_fingerprint"] == Predictor.load(out).data_fingerprint
+    assert c["training_rows_fingerprint"] == TorchPredictor.load(out).data_fingerprint
 
 
 def test_train_interrupted_by_ctrl_c_resumes_with_the_same_command(tiny_dataset, tmp_path,
                                                                    monkeypatch, capsys):
-    import rap.model.train as training
+    import rap.model.training.train as training
 
     out = tmp_path / "m.pt"
     argv = ["train", str(tiny_dataset), "--out", str(out), "--epochs", "2", "--device", "cpu"]
@@ -179,7 +179,7 @@ def test_train_interrupted_by_ctrl_c_resumes_with_the_same_command(tiny_dataset,
     assert res.exit_code == 0, res.output
     assert f"resumed from epoch 1 of 2 ({state})" in res.output
     assert out.exists() and not state.exists()  # the state goes once the checkpoint is saved
-    assert Predictor.load(out).training["resume"]["from_epoch"] == 1
+    assert TorchPredictor.load(out).training["resume"]["from_epoch"] == 1
     monkeypatch.setattr(training, "train", ctrl_c_in_epoch_2)
     with pytest.raises(SystemExit):
         main(argv)
@@ -196,7 +196,7 @@ def test_train_interrupted_by_ctrl_c_resumes_with_the_same_command(tiny_dataset,
     monkeypatch.setattr(training, "train", real)
     res = CliRunner().invoke(app, argv + ["--restart"])  # the state is dropped, not resumed
     assert res.exit_code == 0 and "resumed" not in res.output, res.output
-    assert Predictor.load(out).training["resume"]["from_epoch"] == 0 and not state.exists()
+    assert TorchPredictor.load(out).training["resume"]["from_epoch"] == 0 and not state.exists()
 
 
 def test_train_logs_a_line_per_epoch_when_not_on_a_terminal(tiny_dataset, tmp_path):
@@ -232,7 +232,7 @@ def test_score_and_train_count_each_duplicated_key_once_and_say_so(tiny_dataset,
     warning = (f"rap-farm: warning: {ds}: 48 duplicate rows (48 keys stored more than once); each "
                f"key's first row (by shard path, then row) is used")
     assert warning in err.splitlines()
-    assert Predictor.load(model).training["corpus"]["rows"] == 144
+    assert TorchPredictor.load(model).training["corpus"]["rows"] == 144
     main(["score", str(model), str(ds), "--out", str(tmp_path / "s")])
     assert warning in capsys.readouterr().err.splitlines()
     assert json.loads((tmp_path / "s" / "score.json").read_text())["rows"][-1]["rows"] == 144

@@ -4,8 +4,8 @@ from dataclasses import replace
 
 import pytest
 
-from model_fixtures import FAST_TRAIN, TINY_MODEL
-from rap.model.evaluate import cross_validate, fold_specs, sequential_folds
+from tests.model.model_fixtures import FAST_TRAIN, TINY_MODEL
+from rap.model.evaluation.cross_validation import cross_validate, fold_specs, sequential_folds
 
 ray = pytest.importorskip("ray")
 pytestmark = pytest.mark.ray

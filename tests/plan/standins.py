@@ -15,7 +15,7 @@ import hashlib
 
 import numpy as np
 
-from rap.plan.cache import CachedScore
+from rap.plan.scoring.cache import CachedScore
 
 
 def hash_score(op, trials: int = 20) -> float:

@@ -11,18 +11,18 @@ from typing import ClassVar
 import pytest
 
 from rap.errors import ParameterError
-from rap.farm.api import BadRequest, parse_plan_request
-from rap.plan.cache import ScoreCache
-from rap.plan.experiment import method_planner
+from rap.service.api import BadRequest, parse_plan_request
+from rap.plan.scoring.cache import ScoreCache
+from rap.experiment.run import method_planner
 from rap.plan.graph import Interlocked, assembly_order
 from rap.plan.methods import (METHODS, from_table_name, make_planner, needs_model, register,
                               unregister)
-from rap.plan.options import PlannerOptions, option
-from rap.plan.planners import Planner
+from rap.plan.planners.options import PlannerOptions, option
+from rap.plan.planners.base import Planner
 from rap.plan.problem import PlanningProblem
-from rap.plan.result import PlanStatus, PlanStep
-from rap.plan.scorers import Scorer
-from rap.plan.validate import check_plan
+from rap.plan.report.result import PlanStatus, PlanStep
+from rap.plan.scoring.scorer import Scorer
+from rap.plan.report.validate import check_plan
 from rap.sim.params import SimParams
 
 from tests.plan.cases import FRAMED_HOLE, ROW3, memory, six, write

@@ -7,7 +7,7 @@ import pytest
 from rap.plan.graph import (TooLarge, argmax_first, assembly_order, dead_end, dp_choice, dp_tree,
                             reachable)
 from rap.plan.problem import PlanningProblem
-from rap.plan.result import PlanStep
+from rap.plan.report.result import PlanStep
 from rap.sim.params import SimParams
 
 from tests.plan.cases import FRAMED_HOLE, ROW3, memory, six

@@ -1,4 +1,4 @@
-"""The planning methods' declarations (rap.plan.methods, rap.plan.options): one place that the
+"""The planning methods' declarations (rap.plan.methods, rap.plan.planners.options): one place that the
 planner factory, the CLI's flags, the service's options and the experiment's names all read.
 Every registered method is checked here, a new one included."""
 
@@ -10,8 +10,8 @@ from rap.errors import InputError, ParameterError
 from rap.plan.methods import (DEFAULT_METHOD, METHODS, PAPER_RAP, RapOptions, SearchOptions,
                               check_options, from_table_name, make_planner, method_options,
                               needs_model, option_named, service_options)
-from rap.plan.options import Option
-from rap.plan.planners import Planner
+from rap.plan.planners.options import Option
+from rap.plan.planners.base import Planner
 
 
 @pytest.mark.parametrize("method", list(METHODS))

@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from rap.files import write_text_atomic
-from rap.plan.execution import CSV_COLUMNS, tidy
+from rap.plan.report.poses import CSV_COLUMNS, tidy
 
 from tests.plan.cases import FRAMED_HOLE, ROOT, ROW3, write
 
@@ -118,7 +118,7 @@ def test_the_progress_line_shows_the_scorers_counters_on_a_terminal():
     from rich.console import Console
 
     from rap.commands._progress import activity
-    from rap.plan.scorers import ScorerStats
+    from rap.plan.scoring.scorer import ScorerStats
 
     buf = io.StringIO()
     console = Console(file=buf, force_terminal=True, width=120)
@@ -133,7 +133,7 @@ def test_the_progress_line_shows_the_scorers_counters_on_a_terminal():
 
 def test_the_scorer_reports_each_batch_before_and_after_it():
     from rap.plan.problem import PlanningProblem
-    from rap.plan.scorers import Scorer
+    from rap.plan.scoring.scorer import Scorer
     from rap.sim.params import SimParams
 
     from tests.plan.cases import memory

@@ -26,7 +26,7 @@ def test_clopper_pearson_bounds_in_closed_form_at_the_ends():
 
 def _run(test: SequentialTest, p: float, taus, rng) -> str:
     """One stream: chunks of Bernoulli(p) trials, a look after each against ``taus[look]``,
-    stopped at the first decision (what ``rap.plan.screening`` does)."""
+    stopped at the first decision (what ``rap.plan.search.screening`` does)."""
     s = n = 0
     for chunk, tau in zip(test.chunks, taus):
         s += int(rng.binomial(chunk, p))

@@ -1,0 +1,1 @@
+"""Scoring operations with a trained checkpoint, one module per engine: ``torch_engine`` (TorchPredictor), ``numpy_engine`` (NumpyPredictor: the same forward pass without importing torch) and ``operations`` (OperationPredictor: render, describe and predict a planner's operations, engine chosen automatically). No ray."""

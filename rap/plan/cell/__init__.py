@@ -1,0 +1,1 @@
+"""Robot-cell constraints on plans: the constraint data and its parsing (``constraints``), the rules that decide which operations and sequences a cell can execute (``rules``), and their help text (``help``). No ray, no torch."""

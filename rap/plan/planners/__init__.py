@@ -1,0 +1,1 @@
+"""The planning methods: the planner base and the greedy (RAP, simulator-only), optimal and random planners; each method's options as data, and the registry that maps a method name to its planner. No ray, no torch."""

@@ -1,0 +1,1 @@
+"""What a plan says: the result document (steps, status, JSON), the robot poses of each step, the reasons that limit a step, the confidence intervals, and the independent plan checker. No ray, no torch."""

@@ -1,0 +1,1 @@
+"""Where a planner's scores come from: the Scorer (a simulator backend and an optional CNN, with budgets), the local simulator, the content-keyed score cache, and the model's familiarity with an assembly. No ray, no torch."""

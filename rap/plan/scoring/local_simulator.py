@@ -1,0 +1,196 @@
+"""Simulator scores on this machine: ``LocalSimulator``, a ``SimBackend`` of ``rap.plan.scoring.scorer``.
+
+``LocalSimulator`` runs ``rap.sim.simulator.simulate`` with the per-operation seed
+``problem.seed(op)`` (the labelling farm's seed, so the scores equal the dataset's labels for the
+same parameters and root seed): in this process, or, with ``processes > 1``, a batch of at least
+``min_batch`` (``MIN_PROCESS_BATCH``, 8) operations spread over that many forked worker processes,
+started at the first such batch (well under a second, against 10-30 s for a local Ray) and kept
+until ``close()``. With ``prestart=True`` the workers are forked at once and load the compiled
+simulator while the caller plans (a one-off ``rap-farm plan``: the ~0.75 s of loading and the
+~0.35 s that an interpreter which loaded numba takes to exit stay off the planner's core); every
+batch then goes to them.
+
+The workers are a ``concurrent.futures.ProcessPoolExecutor`` over a fork context that keeps the
+processes it starts (``LocalSimulator.workers``), so that ``close()`` can stop workers still
+loading the simulator with public calls only (``Process.terminate``, then ``shutdown(wait=True)``;
+``terminate_workers`` on Python 3.14 and later).
+
+``simulate_chunks(problem, chunks)``: the chunks of sequential tests (``rap.sim.sequential``),
+each ``(op, index, trials)`` one run of ``trials`` trials from ``chunk_seed(problem.seed(op),
+index)``, in the same way (never cached: not labels).
+
+Same seeds, same scores in every configuration. No ray, no torch.
+
+Example::
+
+    sim = LocalSimulator(processes=2)
+    try:
+        scores = sim.simulate_many(problem, ops)   # list[CachedScore], in input order
+    finally:
+        sim.close()
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+from typing import Callable, Sequence
+
+import numpy as np
+
+from rap.operation import Operation
+from rap.plan.scoring.cache import CachedScore
+from rap.plan.problem import PlanningProblem
+from rap.seeds import chunk_seed
+
+__all__ = ["LocalSimulator", "MIN_PROCESS_BATCH", "WARM_NICE"]
+
+#: the smallest batch that ``LocalSimulator`` spreads over worker processes: each new worker loads
+#: the compiled simulator (~0.3 s) and competes with the planner for the cores, so a handful of
+#: operations (a greedy plan's evaluation: one per step) is simulated faster in the process itself
+MIN_PROCESS_BATCH = 8
+#: niceness of prestarted workers: while they load the simulator the parent plans on the same
+#: cores and comes first (a warm score cache needs no simulation at all; docs/RESULTS.md,
+#: "Planning latency"); once the parent waits for their results they have the machine
+WARM_NICE = 10
+
+
+def _simulate_one(simulate: Callable | None, assembly, op, params, seed: int) -> CachedScore:
+    if simulate is None:
+        from rap.sim.simulator import simulate
+    res = simulate(assembly, op, params, np.random.default_rng(seed))
+    return CachedScore(float(res.score), int(res.successes), int(res.trials))
+
+
+def _simulate_task(args) -> CachedScore:  # runs in a worker process
+    return _simulate_one(None, *args)
+
+
+def _worker_init(warmed=None) -> None:
+    """Worker processes leave Ctrl-C to the parent, which stops them (no traceback per worker);
+    with a shared counter ``warmed``, load the compiled simulator now rather than at the first
+    operation (at a lower priority), then count this worker as warm."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if warmed is not None:
+        import os
+
+        os.nice(WARM_NICE)
+        from rap.sim.simulator import warm_up
+
+        warm_up()
+        with warmed.get_lock():
+            warmed.value += 1
+
+
+def _noop() -> None:  # submitted once to make a fork pool start its workers
+    return None
+
+
+def _fork_context(started: list):
+    """The fork context of ``multiprocessing``, appending every process it makes to ``started``
+    (the executor makes its workers with ``mp_context.Process``)."""
+    import multiprocessing
+
+    fork = type(multiprocessing.get_context("fork"))
+
+    class Recording(fork):
+        def Process(self, *args, **kwargs):
+            proc = fork.Process(*args, **kwargs)
+            started.append(proc)
+            return proc
+
+    return Recording()
+
+
+class LocalSimulator:
+    """``rap.sim.simulator.simulate`` on this machine (``simulate`` replaceable): sequentially in
+    this process, or over ``processes`` forked workers for batches of ``min_batch`` or more
+    operations (Linux; the real simulator only); with ``prestart``, over ``processes`` workers (one
+    or more) forked now, which load the simulator at once and take every batch. Same seeds, same
+    scores either way. A pool that breaks (a worker killed) is dropped and the batch simulated
+    here. ``workers``: the processes of the pool now running (empty when none)."""
+
+    def __init__(self, simulate: Callable | None = None, *, processes: int = 1,
+                 min_batch: int = MIN_PROCESS_BATCH, prestart: bool = False):
+        self._simulate = simulate
+        self.processes = max(1, int(processes))
+        self.min_batch = max(1, int(min_batch))
+        self._executor = None
+        self.workers: list = []  # the worker processes of ``_executor`` (multiprocessing.Process)
+        self._lock = threading.Lock()
+        self._warmed = None  # shared count of prestarted workers that have loaded the simulator
+        self.prestarted = bool(prestart) and self._can_fork()
+        if self.prestarted:
+            self._pool().submit(_noop)  # a fork pool starts all its workers at the first submit
+
+    def loading(self) -> bool:
+        """True while prestarted workers are still loading the simulator (the caller then leaves
+        them a core: see ``OperationPredictor.cores_busy``)."""
+        warmed = self._warmed
+        return self.prestarted and warmed is not None and warmed.value < self.processes
+
+    def _can_fork(self) -> bool:
+        return self._simulate is None and sys.platform.startswith("linux")
+
+    def _pool(self):
+        if not self._can_fork() or (self.processes < 2 and not self.prestarted):
+            return None
+        with self._lock:
+            if self._executor is None:
+                from concurrent.futures import ProcessPoolExecutor
+
+                self.workers = []
+                ctx = _fork_context(self.workers)
+                if self.prestarted:
+                    self._warmed = ctx.Value("i", 0)
+                else:
+                    from rap.sim import simulator  # noqa: F401  (imported once, before the fork)
+                self._executor = ProcessPoolExecutor(self.processes, mp_context=ctx,
+                                                     initializer=_worker_init,
+                                                     initargs=(self._warmed,))
+            return self._executor
+
+    def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
+        return self._run([(problem.assembly, op, problem.params, problem.seed(op)) for op in ops])
+
+    def simulate_chunks(self, problem: PlanningProblem,
+                        chunks: Sequence[tuple[Operation, int, int]]) -> list[CachedScore]:
+        """Each ``(op, index, trials)``: ``trials`` trials from ``chunk_seed(problem.seed(op),
+        index)``, in input order (module doc)."""
+        return self._run([(problem.assembly, op, problem.params.with_(trials=int(n)),
+                           chunk_seed(problem.seed(op), int(i))) for op, i, n in chunks])
+
+    def _run(self, jobs: list) -> list[CachedScore]:
+        pool = self._pool() if self.prestarted or len(jobs) >= self.min_batch else None
+        if pool is not None:
+            from concurrent.futures.process import BrokenProcessPool
+
+            try:
+                return list(pool.map(_simulate_task, jobs))
+            except BrokenProcessPool:
+                self.close()
+                self.prestarted, self.processes = False, 1
+        return [_simulate_one(self._simulate, *j) for j in jobs]
+
+    def close(self) -> None:
+        """Stop the worker processes (if any were started). Workers still loading the simulator
+        are terminated rather than waited for: they hold nothing that must be kept."""
+        with self._lock:
+            ex, self._executor = self._executor, None
+            workers, self.workers = self.workers, []
+        if ex is None:
+            return
+        terminate = getattr(ex, "terminate_workers", None)  # Python >= 3.14
+        if terminate is not None:
+            terminate()
+            return
+        for proc in workers:
+            proc.terminate()
+        # The executor's manager thread sees them gone and joins them (the same process objects):
+        # waiting for it, rather than joining them here as well, leaves none that reads as alive
+        # (two threads reaping one child race: waitpid's ECHILD).
+        ex.shutdown(wait=True, cancel_futures=True)
+
+

@@ -1,0 +1,228 @@
+"""How planners score operations: one ``Scorer`` over a simulator backend and an optional CNN.
+
+A planner sees one object, ``Scorer``, with two questions:
+
+* ``scores(problem, ops) -> list[float]``: the simulator's score of each operation, in input order.
+  Scores already known are taken from the ``ScoreCache`` (content key + root seed, see
+  ``rap.plan.scoring.cache``); the rest go to the simulator backend in ONE call, so a backend that runs
+  them in parallel (the Ray ``SimPool``, ``rap.service.planning.PoolSimulator``) sees the whole batch.
+* ``prob_high(problem, ops) -> float [N]``: the CNN's P(high) for each operation, one batch;
+  ``expected_scores(problem, ops)``: its expected success rate (the binomial head's calibrated
+  score; what search multiplies); ``prob_high_and_expected``: both from one pass (what RAP ranks
+  by).
+
+* ``chunks(problem, [(op, index, trials), ...]) -> list[CachedScore]``: runs of the sequential
+  tests (``rap.sim.sequential``), one backend call, never cached (they are not labels: a label
+  keeps its fixed trials), where the backend offers ``simulate_chunks`` (``chunked``; the farm's
+  pool does not, and a search then simulates in full).
+
+Backends: a simulator (``SimBackend``: ``simulate_many(problem, ops) -> list[CachedScore]``), such as
+``rap.plan.scoring.local_simulator.LocalSimulator`` (this machine, optionally over forked worker processes)
+or the farm's pool; a CNN (``CnnBackend``), such as ``rap.model.inference.operations.OperationPredictor`` (renders
+each operation and runs the network, in torch or in numpy).
+
+``on_progress(stats, running)``, when given, is called before each simulator batch (``running``:
+its size) and after each batch and CNN call (``running`` 0), with the scorer's counters: what a
+command's progress line shows (``rap.commands._progress``).
+
+``Budget`` limits a run (simulations, seconds); a scorer raises ``BudgetSpent`` when a call would
+exceed it and the planner reports ``PlanStatus.BUDGET_SPENT``. ``Scorer.fork()`` gives a scorer with
+the same backends and cache and fresh counters (one per request in the planning service).
+
+No ray; no torch at import.
+
+Example::
+
+    scorer = Scorer(LocalSimulator(), OperationPredictor.load(model, engine="auto"))
+    scores = scorer.scores(problem, problem.candidates(problem.whole))
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Protocol, Sequence
+
+import numpy as np
+
+from rap.operation import Operation
+from rap.plan.scoring.cache import CachedScore, ScoreCache
+from rap.plan.problem import PlanningProblem
+
+__all__ = ["SimBackend", "CnnBackend", "Scorer", "ScorerStats", "Budget", "BudgetSpent"]
+
+
+class SimBackend(Protocol):
+    def simulate_many(self, problem: PlanningProblem,
+                      ops: Sequence[Operation]) -> list[CachedScore]: ...
+
+
+class CnnBackend(Protocol):
+    def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
+
+    def expected_score(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
+
+
+class BudgetSpent(Exception):
+    """Raised by a scorer when a call would exceed its ``Budget``."""
+
+
+@dataclass(frozen=True)
+class Budget:
+    """At most ``max_simulations`` fresh simulations and ``max_seconds`` of wall time (None: no
+    limit). The clock starts when the scorer is forked or created."""
+
+    max_simulations: int | None = None
+    max_seconds: float | None = None
+
+
+@dataclass
+class ScorerStats:
+    sim_requested: int = 0  # operations whose score was asked for
+    sim_run: int = 0  # operations simulated fresh (cache misses)
+    cache_hits: int = 0
+    sim_calls: int = 0  # backend calls (batches)
+    sim_seconds: float = 0.0
+    sim_trials: int = 0  # trials of the fresh simulations and chunks
+    chunk_runs: int = 0  # chunks of sequential tests run (``Scorer.chunks``)
+    chunk_trials: int = 0  # their trials
+    cnn_batches: int = 0
+    cnn_ops: int = 0
+    cnn_seconds: float = 0.0
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass
+class Scorer:
+    """Cached simulator scores and CNN probabilities for planners (see module doc)."""
+
+    simulator: SimBackend
+    cnn: CnnBackend | None = None
+    cache: ScoreCache = field(default_factory=ScoreCache)
+    budget: Budget = field(default_factory=Budget)
+    stats: ScorerStats = field(default_factory=ScorerStats)
+    started: float = field(default_factory=time.perf_counter)
+    on_progress: Callable[[ScorerStats, int], None] | None = field(default=None, repr=False)
+
+    def _progress(self, running: int) -> None:
+        if self.on_progress is not None:
+            self.on_progress(self.stats, running)
+
+    def fork(self, budget: Budget | None = None, cache: ScoreCache | None = None) -> "Scorer":
+        """Same backends (and cache, unless given), fresh counters and clock."""
+        return Scorer(self.simulator, self.cnn, self.cache if cache is None else cache,
+                      self.budget if budget is None else budget)
+
+    def _check_time(self) -> None:
+        b = self.budget
+        if b.max_seconds is not None and time.perf_counter() - self.started > b.max_seconds:
+            raise BudgetSpent(f"time budget of {b.max_seconds:g} s spent")
+
+    def scores(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[float]:
+        """Simulator scores of ``ops`` in input order (cached; misses in one backend call)."""
+        return [c.score for c in self.results(problem, ops)]
+
+    def results(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
+        self._check_time()
+        ops = list(ops)
+        keys = [problem.key(op) for op in ops]
+        found = self.cache.get_many(keys)
+        missing: dict[str, Operation] = {}
+        for k, op, c in zip(keys, ops, found):
+            if c is None:
+                missing.setdefault(k, op)
+        st = self.stats
+        st.sim_requested += len(ops)
+        st.cache_hits += len(ops) - sum(1 for c in found if c is None)
+        if missing:
+            b = self.budget
+            if (b.max_simulations is not None
+                    and self._spent(problem) + len(missing) > b.max_simulations):
+                raise BudgetSpent(f"simulation budget of {b.max_simulations} spent")
+            self._progress(len(missing))
+            t = time.perf_counter()
+            fresh = self.simulator.simulate_many(problem, list(missing.values()))
+            st.sim_seconds += time.perf_counter() - t
+            st.sim_calls += 1
+            st.sim_run += len(missing)
+            if len(fresh) != len(missing):
+                raise RuntimeError("simulator backend returned a wrong number of results")
+            st.sim_trials += sum(c.trials for c in fresh)
+            new = dict(zip(missing, fresh))
+            self.cache.put_many(new.items())
+            found = [c if c is not None else new[k] for k, c in zip(keys, found)]
+        self._progress(0)
+        return found  # type: ignore[return-value]
+
+    def _spent(self, problem: PlanningProblem) -> float:
+        """Fresh simulations so far, a chunk counting its share of a full one."""
+        st = self.stats
+        if not st.chunk_trials:
+            return st.sim_run
+        return st.sim_run + st.chunk_trials / problem.params.trials
+
+    @property
+    def chunked(self) -> bool:
+        """Whether the simulator backend runs the chunks of sequential tests."""
+        return hasattr(self.simulator, "simulate_chunks")
+
+    def chunks(self, problem: PlanningProblem,
+               chunks: Sequence[tuple[Operation, int, int]]) -> list[CachedScore]:
+        """Each ``(op, index, trials)`` simulated as chunk ``index`` of ``op``'s sequential test
+        (``trials`` trials, its own seed), in input order; one backend call, not cached. A budget
+        of simulations counts ``trials / problem.params.trials`` of one per chunk."""
+        self._check_time()
+        chunks = list(chunks)
+        if not chunks:
+            return []
+        st, b = self.stats, self.budget
+        if b.max_simulations is not None and (self._spent(problem) + sum(n for _, _, n in chunks)
+                                              / problem.params.trials > b.max_simulations):
+            raise BudgetSpent(f"simulation budget of {b.max_simulations} spent")
+        self._progress(len(chunks))
+        t = time.perf_counter()
+        got = self.simulator.simulate_chunks(problem, chunks)
+        st.sim_seconds += time.perf_counter() - t
+        st.sim_calls += 1
+        if len(got) != len(chunks):
+            raise RuntimeError("simulator backend returned a wrong number of results")
+        st.chunk_runs += len(chunks)
+        st.chunk_trials += sum(c.trials for c in got)
+        st.sim_trials += sum(c.trials for c in got)
+        self._progress(0)
+        return list(got)
+
+    def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        """The CNN's P(high) for each operation, one batch. Raises when no CNN is loaded."""
+        return self._cnn_call("prob_high", problem, ops)
+
+    def expected_scores(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
+        """The CNN's expected score (success rate) for each operation, one batch."""
+        return self._cnn_call("expected_score", problem, ops)
+
+    def prob_high_and_expected(self, problem: PlanningProblem, ops: Sequence[Operation]
+                               ) -> tuple[np.ndarray, np.ndarray]:
+        """Both of the CNN's numbers for each operation, one batch (one rendering and forward
+        pass where the backend offers ``prob_high_and_expected``, else two calls)."""
+        if self.cnn is not None and not hasattr(self.cnn, "prob_high_and_expected"):
+            return self.prob_high(problem, ops), self.expected_scores(problem, ops)
+        return self._cnn_call("prob_high_and_expected", problem, ops)
+
+    def _cnn_call(self, what: str, problem: PlanningProblem, ops: Sequence[Operation]):
+        if self.cnn is None:
+            raise RuntimeError("this scorer has no CNN (load a model for methods rap and search)")
+        self._check_time()
+        t = time.perf_counter()
+        got = getattr(self.cnn, what)(problem, list(ops))
+        self.stats.cnn_seconds += time.perf_counter() - t
+        self.stats.cnn_batches += 1
+        self.stats.cnn_ops += len(ops)
+        self._progress(0)
+        out = tuple(np.asarray(x, dtype=np.float64) for x in
+                    (got if isinstance(got, tuple) else (got,)))
+        if any(x.shape != (len(ops),) for x in out):
+            raise RuntimeError(f"CNN returned shape {[x.shape for x in out]} for {len(ops)} "
+                               f"operations")
+        return out if isinstance(got, tuple) else out[0]

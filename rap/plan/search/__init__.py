@@ -1,0 +1,1 @@
+"""The default planner: search over the AND/OR graph on predicted scores, with simulations where the model's bounds say they can change the plan (``planner``), and its score state and bound on the optimum (``scores``). No ray, no torch."""

@@ -1,0 +1,319 @@
+"""Branch and bound on the model's uncertainty: what a search knows of each operation, and bounds.
+
+``SearchScores`` holds, for one search, every operation's score as far as known: the simulator's
+(exact) where simulated, else the model's expected score ``p`` and its conformal upper bound ``u``
+at a per-operation level (``rap.model.calibration``). Three views:
+
+* ``known(op)``: simulated, else ``p`` (what a plan is chosen by when the budget is spent);
+* ``high(op)``: simulated, else ``u``: an upper bound on the simulated score. With ``level =
+  bonferroni(confidence, n - 1)`` (``1 - (1 - confidence) / (n - 1)``, the union bound over a
+  sequence's ``n - 1`` steps) the bounds of all steps of one sequence (the optimum's, say) hold
+  together with probability at least ``confidence``, so ``V = max over sequences of the product
+  of high`` is an upper bound on the optimum's robustness at that confidence. The guarantee is
+  split conformal's: for operations exchangeable with the calibration set; that the optimum's
+  steps are chosen by their scores is not covered by it, which is why coverage is *measured*
+  (docs/RESULTS.md);
+* ``of(op)`` (what the search chooses by): simulated; else ``p`` when trusted (``p >= trust``);
+  else ``max(p + optimism (1 - p), p + upper (u - p))``: the constant optimism of earlier releases
+  and the bound's share ``upper`` in [0, 1], whichever is the larger (``upper = 0``: the constant
+  optimism alone, as before; ``upper = 1, optimism = 0``: the bound itself). ``lower()`` (choose
+  by ``known``) and ``by_bounds()`` (by ``high``) change it for the rest of a search.
+
+An operation *partly simulated* by a sequential test (``rap.plan.search.screening``: chunks of trials,
+stopped once its score is shown below what could still matter) is in ``partial``, not in
+``simulated``: ``known`` is its chunks' rate, ``of`` their upper confidence bound while the
+search chooses by raised scores (their rate once lowered), ``high`` stays the model's bound (so
+the reported ``V`` keeps its confidence), and no incumbent counts it.
+
+``max_value(graph, scores_of, whole)``: ``max over sequences of the product of scores`` by branch
+and bound (no tie-breaking, so ties are pruned); ``incumbent(graph, scores, whole)``: the best
+sequence all of whose operations are simulated (its robustness and tree; 0 and None when there is
+none). ``report(...)``: the ``bound`` block of a plan (``rap.plan.report.result.PlanResult``).
+
+Cost: ``max_value`` at most one visit of each reachable subassembly (its candidates' scores asked
+once); the upper bounds of a batch of predictions are one vectorised call. No ray, no torch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rap.model.calibration import ScoreBounds, bonferroni
+from rap.plan.dp import dp_choice_bounded
+from rap.plan.graph import Graph
+from rap.plan.problem import PlanningProblem
+from rap.plan.search.score_correction import ScoreCorrection
+from rap.plan.scoring.scorer import Scorer
+
+__all__ = ["SearchScores", "max_value", "incumbent", "report", "bonferroni"]
+
+
+@dataclass
+class SearchScores:
+    """The scores one search knows (module doc). ``level``: the per-operation level of the upper
+    bounds (``bonferroni(confidence, steps)``)."""
+
+    problem: PlanningProblem
+    scorer: Scorer
+    bounds: ScoreBounds = field(default_factory=ScoreBounds.trivial)
+    level: float = 0.95
+    optimism: float = 0.0
+    upper: float = 0.0
+    trust: float | None = None
+    correction: ScoreCorrection | None = None
+    predicted: dict = field(default_factory=dict)
+    bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
+    simulated: dict = field(default_factory=dict)
+    # key -> (successes, trials, upper bound) of an operation partly simulated (module doc)
+    partial: dict = field(default_factory=dict)
+    # id(op) -> (op, key): a key is a SHA-256 of the operation's content, the search's main
+    # bookkeeping cost when recomputed; the op is held so that its id is never reused
+    _keys: dict = field(default_factory=dict, repr=False)
+    # view -> subassembly -> its candidates' scores in that view; dropped for a subassembly when
+    # one of its operations is predicted or simulated, for every one when the view changes
+    _lists: dict = field(default_factory=lambda: {"of": {}, "high": {}, "simulated_or_0": {}},
+                         repr=False)
+    # view -> the (exact, bounded) tables of the dynamic programmes over that view, kept between
+    # rounds: an entry is dropped when a subassembly it contains changes scores in that view
+    _memo: dict = field(default_factory=lambda: {v: ({}, {}) for v in
+                                                 ("of", "high", "simulated_or_0")}, repr=False)
+
+    def key(self, op) -> str:
+        """``problem.key(op)``, memoised by the operation object."""
+        hit = self._keys.get(id(op))
+        if hit is not None and hit[0] is op:
+            return hit[1]
+        k = self.problem.key(op)
+        self._keys[id(op)] = (op, k)
+        return k
+
+    def scores(self, view: str, s: frozenset, ops) -> list:
+        """``[getattr(self, view)(op) for op in ops]`` for ``ops``, the candidates of ``s`` (the
+        same list each time), memoised until one of them is predicted or simulated (module doc,
+        ``view``: ``of``, ``high`` or ``simulated_or_0``)."""
+        cache = self._lists[view]
+        out = cache.get(s)
+        if out is None:
+            f = getattr(self, view)
+            out = cache[s] = [f(op) for op in ops]
+        return out
+
+    def memo(self, view: str) -> tuple[dict, dict]:
+        """The tables a dynamic programme over ``view``'s scores keeps between calls
+        (``rap.plan.dp.dp_choice_bounded``'s ``memo``; ``max_value``'s)."""
+        return self._memo[view]
+
+    def cached(self, view: str, s: frozenset) -> bool:
+        """Whether ``scores(view, s, ...)`` is memoised (then its operations are predicted)."""
+        return s in self._lists[view]
+
+    def _changed(self, ops, views=("of", "high", "simulated_or_0")) -> None:
+        """Forget the scores of ``ops``' subassemblies and the values over ``views`` of every
+        subassembly containing one of them."""
+        subs = {op.moving | op.fixed for op in ops}
+        for view, cache in self._lists.items():
+            # a value below S was computed from S's scores, which stay listed until now
+            read = [s for s in subs if cache.pop(s, None) is not None]
+            if read and view in views:
+                for table in self._memo[view]:
+                    for s in [s for s in table if any(x <= s for x in read)]:
+                        del table[s]
+
+    @property
+    def raised(self) -> bool:
+        """Whether the search chooses by raised scores (optimism or the bounds' share)."""
+        return bool(self.optimism or self.upper)
+
+    def lower(self) -> None:
+        """Choose by what is known from now on (the budget is spent)."""
+        self._choose(0.0, 0.0, self.trust)
+
+    def by_bounds(self) -> None:
+        """Choose by the upper bounds themselves from now on (``of`` is ``high`` for every
+        predicted operation: upper 1, no optimism, no trust), so the choice's value is ``V``."""
+        self._choose(0.0, 1.0, None)
+
+    def _choose(self, optimism: float, upper: float, trust: float | None) -> None:
+        self.optimism, self.upper, self.trust = optimism, upper, trust
+        self._forget("of")
+
+    def _forget(self, view: str) -> None:
+        """Drop every memoised score list and table of ``view``."""
+        self._lists[view].clear()
+        for table in self._memo[view]:
+            table.clear()
+
+    def predict(self, ops) -> None:
+        """The model's expected score (and its upper bound) of each operation not predicted yet,
+        in one CNN batch."""
+        todo = {}
+        for op in ops:
+            k = self.key(op)
+            if k not in self.predicted and k not in todo:
+                todo[k] = op
+        if todo:
+            p = np.asarray(self.scorer.expected_scores(self.problem, list(todo.values())),
+                           dtype=np.float64)
+            u = self.bounds.upper(p, self.level)
+            for k, v, w in zip(todo, p, u):
+                self.predicted[k] = float(v)
+                self.bound[k] = float(w)
+            # first scores: only the bounds (1 before) can have been read, by ``high``
+            self._changed(todo.values(), ("high",))
+
+    def of(self, op) -> float:
+        """The score the search chooses by (module doc)."""
+        k = self.key(op)
+        if k in self.simulated:
+            return self.simulated[k]
+        if k in self.partial:
+            s, n, up = self.partial[k]
+            return up if self.raised else s / n
+        p = self.predicted[k]
+        if self.trust is not None and p >= self.trust:
+            return self._corrected(p)
+        p = out = self._corrected(p)
+        if self.optimism:
+            out = p + self.optimism * (1.0 - p)
+        if self.upper:
+            out = max(out, p + self.upper * (self.bound[k] - p))
+        return out
+
+    def known(self, op) -> float:
+        """Simulated, else partly simulated (the chunks' rate), else predicted (corrected, with
+        a correction)."""
+        k = self.key(op)
+        if k in self.simulated:
+            return self.simulated[k]
+        if k in self.partial:
+            s, n, _ = self.partial[k]
+            return s / n
+        return self._corrected(self.predicted[k])
+
+    def _corrected(self, p: float) -> float:
+        return p if self.correction is None else self.correction(p)
+
+    def high(self, op) -> float:
+        """Simulated, else the upper bound (1 for an operation not predicted)."""
+        k = self.key(op)
+        return self.simulated[k] if k in self.simulated else self.bound.get(k, 1.0)
+
+    def is_simulated(self, op) -> bool:
+        return self.key(op) in self.simulated
+
+    def simulate(self, ops) -> None:
+        """Simulate the operations not simulated yet (one batch)."""
+        ops = [op for op in ops if self.key(op) not in self.simulated]
+        scores = [float(sc) for sc in self.scorer.scores(self.problem, ops)]
+        refit = False
+        if self.correction is not None:
+            for op, sc in zip(ops, scores):
+                if self.key(op) in self.predicted:
+                    self.correction.add(self.predicted[self.key(op)], sc)
+                    refit = True
+        self.add_simulated(ops, scores)
+        if refit:
+            self._forget("of")  # the unsimulated operations' ``of`` moved
+
+    def add_simulated(self, ops, scores) -> None:
+        """Scores simulated elsewhere (a plan's evaluation)."""
+        ops = list(ops)
+        for op, sc in zip(ops, scores):
+            self.simulated[self.key(op)] = float(sc)
+            self.partial.pop(self.key(op), None)
+        self._changed(ops)
+
+    def add_partial(self, op, successes: int, trials: int, upper: float) -> None:
+        """``op``'s sequential test so far: ``successes`` of ``trials``, ``upper`` the upper
+        bound of its score (module doc)."""
+        self.partial[self.key(op)] = (int(successes), int(trials), float(upper))
+        self._changed([op], ("of",))
+
+    def simulated_or_0(self, op) -> float:
+        """Simulated, else 0 (what the incumbent is chosen by)."""
+        return self.simulated.get(self.key(op), 0.0)
+
+
+def max_value(graph: Graph, scores_of, whole: frozenset,
+              memo: tuple[dict, dict] | None = None) -> float:
+    """``max over sequences of the product of scores`` below ``whole`` (1 for a single part, 0
+    when none exists); ``scores_of(S)``: the scores in [0, 1] of ``graph[S]`` in order, asked at
+    most once per subassembly. Branch and bound as ``rap.plan.dp``, but a candidate that
+    can at most tie is pruned (only the value is wanted). Recursion depth at most the parts.
+    ``memo``: ``(exact, bounded)`` kept between calls, as ``dp_choice_bounded``'s."""
+    exact: dict[frozenset, float]
+    bounded: dict[frozenset, float]
+    exact, bounded = memo if memo is not None else ({}, {})
+    asked: dict[frozenset, list] = {}
+
+    def value(s: frozenset, tau: float) -> tuple[float, bool]:
+        # best(s) exactly when it exceeds tau; else (a number <= tau that is >= best(s), False)
+        if len(s) < 2:
+            return 1.0, True
+        if s in exact:
+            return exact[s], True
+        if s in bounded and bounded[s] <= tau:
+            return bounded[s], False
+        cands = graph[s]
+        if s not in asked:
+            asked[s] = list(scores_of(s)) if cands else []
+        scores = asked[s]
+        best = 0.0
+        for i in sorted(range(len(cands)), key=lambda j: -scores[j]):
+            r = scores[i]
+            cut = max(best, tau)
+            if r <= cut or r <= 0.0:
+                break  # sorted: nothing later can beat the cut
+            vm, ok = value(cands[i].moving, cut / r)
+            if not ok or r * vm <= cut:
+                continue
+            vf, ok = value(cands[i].fixed, cut / (r * vm))
+            if ok and r * vm * vf > best:
+                best = r * vm * vf
+        if best > tau:
+            exact[s] = best
+            return best, True
+        bounded[s] = max(tau, 0.0)
+        return bounded[s], False
+
+    if len(whole) < 2:
+        return 1.0
+    v, ok = value(whole, -1.0)
+    return v if ok else 0.0
+
+
+def incumbent(graph: Graph, scores: SearchScores, whole: frozenset) -> tuple[float, dict | None]:
+    """The best sequence whose operations are all simulated: (its robustness, subassembly ->
+    operation), or (0.0, None) when no such sequence exists. No prediction is asked for."""
+    def scores_of(s):
+        return scores.scores("simulated_or_0", s, graph[s])
+
+    best, tree = dp_choice_bounded(graph, scores_of, whole, scores.memo("simulated_or_0"))
+    if best <= 0.0:
+        return 0.0, None
+    return best, {sub: op for sub, (_, op) in tree.items()}
+
+
+def report(robustness: float, value: float, confidence: float, scope: str,
+           bounds: ScoreBounds, steps: int, level: float) -> dict:
+    """A plan's ``bound`` block: the optimum's upper bound ``V`` (raised to the plan's own
+    ``robustness`` where rounding left it below), the confidence, the plan's gap ``1 - R / V``,
+    the scope (``exact``: every sequence; ``beam``: the final beam's only) and a note on where the
+    bounds came from."""
+    v = max(float(value), float(robustness))
+    if bounds.perfect:
+        note = "a perfect scorer: the bound is the optimum"
+    elif not bounds.calibrated:
+        note = bounds.provenance.get("note", "no calibration: unsimulated operations bounded by 1")
+    else:
+        src = bounds.provenance
+        what = ", ".join(str(src[k]) for k in ("model", "set", "date") if k in src)
+        note = (f"split-conformal bounds per operation at level {level:.4g} (Bonferroni over "
+                f"{steps} steps)" + (f", calibrated: {what}" if what else ""))
+    if scope == "beam":
+        note += "; over the final beam's sequences only, not every sequence"
+    return {"robustness_upper": v, "confidence": float(confidence),
+            "gap": 0.0 if v <= 0 else max(0.0, 1.0 - float(robustness) / v),
+            "scope": scope, "note": note}

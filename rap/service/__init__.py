@@ -1,0 +1,1 @@
+"""The planning service: its settings and request parser (``api``, no ray), the service that plans on the shared simulation pool (``planning``), the HTTP app and page (``http_app``, Ray Serve + FastAPI) and ``launch`` (deploy, wait until healthy, serve until stopped). Sits above rap.farm, whose pool it uses."""

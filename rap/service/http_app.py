@@ -1,0 +1,359 @@
+"""The planning service over HTTP: a Ray Serve application with a FastAPI ingress (``rap-farm serve``).
+
+One Serve replica, ``PlanningApp``, holds a ``rap.service.planning.PlanningService``: the CNN loaded
+once, one content-keyed score cache, and a ``SimPool`` of simulation actors (one per CPU of the Ray
+cluster unless ``workers``), all kept warm between requests. The replica asks for no CPU itself and
+runs on the head node, like Serve's HTTP proxy (``proxy_location="HeadOnly"``): on a cluster the
+service listens on ``host:port`` of the head node and the cache file lives there.
+
+Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs`` and ``/redoc``,
+whose Swagger UI and ReDoc files come from the fastapi-offline package, not a CDN: they work
+offline):
+
+* ``GET /``: the planning page (``rap/service/static``: plain HTML, CSS and JS, no build step, no
+  other host): choose or drop a drawing or assembly file, see its parts and NDBG circle, plan with
+  a method, a seed and optionally the robot cell's constraints through ``POST /plan``, step
+  through the plan as a storyboard, download the plan JSON and the storyboard (PNG or SVG). Its
+  requests carry the token typed in the page.
+* ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
+  actor has started (before that, Serve answers 503 or the connection is refused).
+* ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
+  "random"|"search" (default "search"), "seed": <int> (optional), "options": {...} (optional: the
+  method's planner options, ``rap.service.api.PLANNER_OPTIONS``), "constraints": {...} (optional: the
+  robot cell's, ``rap.plan.cell.constraints.CellConstraints.from_json``)}``. 200 with exactly the document that
+  ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
+  ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
+  or ``"feasible": null`` when the request's budget (simulations, seconds) ran out. The header
+  ``X-Plan-Details`` carries ``{"eval_seconds", "stats"}`` (what ``plan --server`` prints besides
+  the table).
+* ``POST /import?name=FILE``: the body is a file's bytes, a drawing (``.dxf``, ``.svg``) or an
+  assembly file (``.json``), read by ``rap.io.load_assembly`` as the CLI reads it
+  (``rap.service.api.read_upload``); 200 with its assembly JSON (what ``rap-farm import`` writes).
+* ``POST /inspect?name=FILE``: the same, and its NDBG: ``{"assembly": <assembly JSON>, "cells":
+  [{"kind", "direction", "partitions"}]}`` (``inspect_document``), what the page draws.
+
+Bad requests get a 4xx status and ``{"error": "<one line>"}``: 400 for a body that is not JSON or
+not an object of those keys, an invalid assembly (the one-line ``AssemblyError`` text of the CLI,
+with ``assembly`` as the source), an unknown method or a seed that is not an integer; 413 for a
+body over ``max_body_bytes`` or an assembly of more than ``max_parts`` parts (``max_optimal_parts``
+for method optimal); 401 without the bearer token when one is set; 503 when reading the assembly
+(or an uploaded file) takes over ``parse_budget_s`` or the answer (or ``/inspect``'s NDBG) over
+``plan_budget_s + answer_grace_s``. A bad upload (no ``name`` or another suffix, a bad drawing or
+assembly) is a 400 with the reader's one line, naming the file as the client did. Numbers are
+parsed as decimals, exactly as ``load_assembly`` reads a file, within ``rap.assembly.LIMITS``.
+Reading, validating and planning run on threads, never on the event loop, so ``/health`` answers
+throughout. A 500 is only for the service's own faults (a bug), with one line; the replica keeps
+serving.
+
+Concurrency: each request is planned on one of ``max_concurrent`` threads of the replica; the
+requests' simulation batches go to the shared pool at the same time (``SimPool`` keeps its
+bookkeeping thread-safe), CNN forward passes take turns. Further requests wait in Serve's queue.
+
+The request contract (``ServeConfig``, ``parse_plan_request``) lives in ``rap.service.api``, which
+imports neither ray nor fastapi.
+
+Running it: ``rap.service.launch.run_service``. Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
+with a token every endpoint but the documentation and the page's static files needs
+``Authorization: Bearer <token>`` (the page sends it on each of its requests). The token
+travels in clear text over plain HTTP: beyond one machine, put the service behind TLS (a reverse
+proxy) or on a private network, as docs/CLUSTER.md says.
+"""
+
+# No "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time,
+# and Serve rebuilds the class-based routes where string annotations do not resolve.
+
+import asyncio
+import hmac
+import json
+import logging
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict
+from pathlib import Path
+
+from fastapi import Query, Request, Security
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, JSONResponse
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from fastapi.staticfiles import StaticFiles
+from fastapi_offline import FastAPIOffline
+from ray import serve
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from rap import __version__
+from rap.assembly import Assembly, assembly_to_json
+from rap.errors import InputError, RapError
+from rap.plan.methods import needs_model
+from rap.plan.scoring.scorer import Budget
+
+from rap.service.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
+                          BadRequest, ServeConfig, parse_plan_request, read_upload)
+
+__all__ = ["PlanningApp", "build_app", "inspect_document", "APP_NAME", "STATIC_DIR"]
+
+APP_NAME = "rap-farm"
+_log = logging.getLogger("rap.service.http_app")
+
+
+def _error(status: int, message: str, headers: dict | None = None) -> JSONResponse:
+    line = " ".join(str(message).split())[:500] or "error"
+    return JSONResponse({"error": line}, status_code=status, headers=headers)
+
+
+#: the planning page (index.html, app.js, app.css), served at / and /static/ without a token
+STATIC_DIR = Path(__file__).parent / "static"
+
+# FastAPIOffline: FastAPI whose /docs and /redoc load Swagger UI and ReDoc from files shipped in
+# the fastapi-offline package (served at /static/swagger/), not from a CDN: they work offline
+api = FastAPIOffline(
+    title="rap-farm planning service",
+    version=__version__,
+    description="Robust assembly sequences of planar parts (RAP, simulator-only, optimal, random). "
+                "POST an assembly to /plan; the answer is the document `rap-farm plan --out` "
+                "writes. POST a drawing (DXF, SVG) or an assembly file to /import or /inspect. "
+                "Errors are `{\"error\": \"one line\"}` with a 4xx/5xx status. The planning "
+                "page is at /.",
+    static_url="/static/swagger",
+    swagger_ui_parameters={"validatorUrl": None},  # no badge fetched from swagger.io
+)
+api.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+_bearer = HTTPBearer(auto_error=False, description="Needed when the service was started with a "
+                                                   "token (always beyond loopback).")
+
+@api.get("/", include_in_schema=False)
+async def page():
+    """The planning page (rap/service/static): upload, NDBG circle, plan, storyboard."""
+    return FileResponse(STATIC_DIR / "index.html")
+
+
+def inspect_document(assembly: Assembly) -> dict:
+    """What ``POST /inspect`` answers: ``{"assembly": <assembly JSON>, "cells": [{"kind":
+    "vertex"|"arc", "direction": [dx, dy], "partitions": n}, ...]}``, the NDBG's cells CCW from
+    angle 0 (as ``rap-farm inspect --json``) with the number of partitions of the whole assembly
+    each admits (what ``rap-farm show`` shades its circle by, capped at 100,000)."""
+    from rap.geometry.ndbg import build_ndbg
+    from rap.geometry.partitions import cell_partition_counts
+
+    ndbg = build_ndbg(assembly)
+    counts = cell_partition_counts(ndbg, frozenset(assembly.ids))
+    return {"assembly": assembly_to_json(assembly),
+            "cells": [{"kind": c.kind, "direction": [c.unit[0], c.unit[1]], "partitions": n}
+                      for c, n in zip(ndbg.cells, counts)]}
+
+
+@api.exception_handler(StarletteHTTPException)
+async def _http_error(request: Request, exc: StarletteHTTPException):
+    return _error(exc.status_code, exc.detail if isinstance(exc.detail, str) else "error",
+                  getattr(exc, "headers", None))
+
+
+@api.exception_handler(RequestValidationError)
+async def _validation_error(request: Request, exc: RequestValidationError):
+    first = exc.errors()[0] if exc.errors() else {}
+    return _error(400, f"invalid request: {first.get('msg', 'validation failed')}")
+
+
+#: the replica asks for no CPU and stays on the head node, next to the HTTP proxy (HeadOnly) and the
+#: score cache file; its simulation actors spread over the cluster
+_HEAD = "node:__internal_head__"
+_DRAIN = 8  # bodies up to this many times the limit are read (and dropped) before the 413
+
+
+@serve.deployment(name="planner", num_replicas=1,
+                  ray_actor_options={"num_cpus": 0, "resources": {_HEAD: 0.001}},
+                  max_ongoing_requests=64)
+@serve.ingress(api)
+class PlanningApp:
+    """The replica (see module doc). ``config``: ``ServeConfig`` fields as a dict."""
+
+    def __init__(self, config: dict):
+        from rap.service.planning import PlanningService
+        from rap.sim.params import SimParams
+
+        self.config = ServeConfig(**config)
+        self.params = SimParams(trials=self.config.trials)
+        self.service = PlanningService(self.config.model_path, workers=self.config.workers,
+                                       cache_path=self.config.cache_path)
+        if self.service.pool is not None:
+            self.service.pool.ready(timeout_s=600)
+        self._executor = ThreadPoolExecutor(self.config.max_concurrent,
+                                            thread_name_prefix="plan")
+        self._readers = ThreadPoolExecutor(4, thread_name_prefix="read")
+        self._flush_lock = threading.Lock()
+        self._flushed = time.monotonic()
+        self.served = 0
+
+    # -- helpers -------------------------------------------------------------------------------------
+    def _authorised(self, creds: HTTPAuthorizationCredentials | None) -> JSONResponse | None:
+        token = self.config.token
+        if not token:
+            return None
+        if creds is None or creds.scheme.lower() != "bearer" or not hmac.compare_digest(
+                creds.credentials.encode(), token.encode()):
+            return _error(401, "missing or wrong bearer token (Authorization: Bearer <token>)",
+                          {"WWW-Authenticate": "Bearer"})
+        return None
+
+    def _read(self, body: bytes):
+        """``parse_plan_request`` with this service's limits (runs on a reader thread)."""
+        parsed = parse_plan_request(body, max_parts=self.config.max_parts,
+                                    max_optimal_parts=self.config.max_optimal_parts,
+                                    max_simulations=self.config.max_simulations,
+                                    max_vertices=self.config.max_vertices)
+        if needs_model(parsed[1]) and self.service.cnn is None:
+            raise BadRequest(400, f"method {parsed[1]!r}: this service has no CNN model; ask for "
+                                  f"method sim")
+        return parsed
+
+    def _read_upload(self, name: str | None, body: bytes) -> Assembly:
+        """``read_upload`` with this service's limits (runs on a reader thread)."""
+        return read_upload(name, body, max_parts=self.config.max_parts,
+                           max_vertices=self.config.max_vertices)
+
+    async def _body(self, request: Request) -> bytes | JSONResponse:
+        """The request's body, or the 413 answer when it is over ``max_body_bytes``."""
+        limit = self.config.max_body_bytes
+        length = request.headers.get("content-length")
+        if length is not None and (not length.isdigit() or int(length) > _DRAIN * limit):
+            return _error(413, f"request body over {limit} bytes")
+        body, size = bytearray(), 0
+        async for chunk in request.stream():  # a body a little too large is read and dropped,
+            size += len(chunk)  # so that the client, still sending, gets the 413 and no reset
+            if size <= limit:
+                body += chunk
+            elif size > _DRAIN * limit:
+                break
+        if size > limit:
+            return _error(413, f"request body over {limit} bytes")
+        return bytes(body)
+
+    async def _off_loop(self, executor, budget_s: float, late: str, what: str, fn, *args):
+        """``fn(*args)`` on ``executor``'s threads, never on the event loop: its value, or the
+        answer to send instead (``BadRequest``: its status; past ``budget_s``: 503 with ``late``;
+        ``InputError``: 400; any other error: 500, "``what`` failed: ...", one line, and the
+        replica keeps serving)."""
+        loop = asyncio.get_running_loop()
+        try:
+            return await asyncio.wait_for(loop.run_in_executor(executor, fn, *args),
+                                          timeout=budget_s)
+        except BadRequest as exc:
+            return _error(exc.status, exc.message)
+        except asyncio.TimeoutError:
+            return _error(503, late)
+        except RapError as exc:
+            return _error(400 if isinstance(exc, InputError) else 500, str(exc))
+        except Exception as exc:  # never a traceback to the client, never a dead replica
+            _log.exception("%s failed", what)
+            return _error(500, f"{what} failed: {type(exc).__name__}: {exc}")
+
+    async def _read_request(self, request: Request, creds: HTTPAuthorizationCredentials | None,
+                            what: str, fn, *args):
+        """Check the token, take the body (at most ``max_body_bytes``) and read it with
+        ``fn(*args, body)`` on a reader thread within ``parse_budget_s``: its value, or the answer
+        to send instead (``what`` names the thing read in the 503 and 500 lines)."""
+        denied = self._authorised(creds)
+        if denied is not None:
+            return denied
+        body = await self._body(request)
+        if isinstance(body, JSONResponse):
+            return body
+        budget = self.config.parse_budget_s
+        return await self._off_loop(self._readers, budget, f"{what} was not read and validated "
+                                    f"within {budget:g} s; send a smaller one", f"reading {what}",
+                                    fn, *args, body)
+
+    def _plan(self, assembly, method: str, seed: int, options: dict, constraints=None):
+        from rap.service.planning import PlanRequest
+
+        req = PlanRequest(assembly, method, self.params, seed, planner_options=options,
+                          constraints=constraints,
+                          budget=Budget(max_simulations=self.config.max_simulations,
+                                        max_seconds=self.config.plan_budget_s))
+        result = self.service.plan(req)
+        self._maybe_flush()
+        return result
+
+    def _maybe_flush(self, force: bool = False) -> None:
+        now = time.monotonic()
+        if not force and now - self._flushed < self.config.cache_flush_s:
+            return
+        if self._flush_lock.acquire(blocking=force):
+            try:
+                self._flushed = now
+                self.service.flush()
+            except OSError as exc:  # a full disk costs the cache, not the service
+                _log.warning("score cache not written: %s", exc)
+            finally:
+                self._flush_lock.release()
+
+    # -- endpoints ------------------------------------------------------------------------------------
+    @api.get("/health", summary="Ready to plan")
+    async def health(self, creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        denied = self._authorised(creds)
+        if denied is not None:
+            return denied
+        info = self.service.ready()
+        model = Path(info["model"]).name if info["model"] else None
+        return {"status": "ok", "version": __version__, "model": model, "workers": info["pool"],
+                "cached_scores": info["cached_scores"], "trials": self.config.trials,
+                "served": self.served, "peak_concurrent": self.service.peak_concurrency()}
+
+    @api.post("/plan", summary="Plan a robust assembly sequence", openapi_extra=PLAN_BODY_OPENAPI)
+    async def plan(self, request: Request,
+                   creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        # reading and exact validation run off the event loop: /health keeps answering
+        read = await self._read_request(request, creds, "the assembly", self._read)
+        if isinstance(read, JSONResponse):
+            return read
+        assembly, method, seed, options, constraints = read
+        result = await self._off_loop(
+            self._executor, self.config.plan_budget_s + self.config.answer_grace_s,
+            f"planning took longer than its budget of {self.config.plan_budget_s:g} s; ask with "
+            f"fewer simulations", f"planning {assembly.name} with {method}", self._plan, assembly,
+            method, seed, options, constraints)
+        if isinstance(result, JSONResponse):
+            return result
+        self.served += 1
+        details = json.dumps({"eval_seconds": result.eval_seconds, "stats": result.stats},
+                             default=str, separators=(",", ":"))
+        return JSONResponse(result.to_json(), headers={DETAILS_HEADER: details})
+
+    @api.post("/import", summary="An assembly from a drawing (DXF, SVG) or an assembly file",
+              openapi_extra=UPLOAD_OPENAPI)
+    async def import_drawing(self, request: Request,
+                             name: str | None = Query(None, description=UPLOAD_NAME_HELP),
+                             creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        """The body is the file's bytes; 200 with the assembly JSON that ``rap-farm import``
+        writes (read exactly, validated), ready for ``POST /plan``."""
+        got = await self._read_request(request, creds, str(name), self._read_upload, name)
+        return got if isinstance(got, JSONResponse) else JSONResponse(assembly_to_json(got))
+
+    @api.post("/inspect", summary="A drawing's or assembly file's parts and NDBG cells",
+              openapi_extra=UPLOAD_OPENAPI)
+    async def inspect(self, request: Request,
+                      name: str | None = Query(None, description=UPLOAD_NAME_HELP),
+                      creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        """As ``/import``, and the NDBG: 200 with ``{"assembly": <assembly JSON>, "cells":
+        [{"kind", "direction", "partitions"}]}`` (``inspect_document``), what the planning page
+        draws."""
+        got = await self._read_request(request, creds, str(name), self._read_upload, name)
+        if isinstance(got, JSONResponse):
+            return got
+        budget = self.config.plan_budget_s + self.config.answer_grace_s
+        doc = await self._off_loop(self._executor, budget, f"the NDBG of {got.name} was not built "
+                                   f"within {budget:g} s", f"the NDBG of {got.name}",
+                                   inspect_document, got)
+        return doc if isinstance(doc, JSONResponse) else JSONResponse(doc)
+
+    def __del__(self):
+        try:
+            self._maybe_flush(force=True)
+        except Exception:
+            pass
+
+
+def build_app(config: ServeConfig):
+    """The Serve application (``PlanningApp`` bound to ``config``)."""
+    return PlanningApp.options(max_ongoing_requests=config.max_concurrent + 16).bind(
+        {**asdict(config)})

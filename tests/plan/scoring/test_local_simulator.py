@@ -1,0 +1,107 @@
+"""LocalSimulator's worker processes: prestarted (a one-off `rap-farm plan`), broken, closed."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from types import SimpleNamespace
+
+import pytest
+
+from rap.plan.problem import PlanningProblem
+from rap.plan.scoring.local_simulator import LocalSimulator
+from rap.sim.params import SimParams
+from tests.plan.cases import ROW3, memory
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
+                                reason="worker processes are forked on Linux only")
+
+
+def _problem():
+    problem = PlanningProblem(memory(ROW3), SimParams(trials=6), root_seed=11)
+    return problem, list(problem.candidates(problem.whole))
+
+
+def test_prestarted_workers_take_every_batch_and_give_the_in_process_scores():
+    problem, ops = _problem()
+    sim = LocalSimulator(processes=2, prestart=True)
+    try:
+        assert sim.prestarted and len(sim.workers) == 2  # forked at construction
+        one = sim.simulate_many(problem, ops[:1])  # a batch of one goes to the workers too
+        pooled = sim.simulate_many(problem, ops)
+    finally:
+        sim.close()
+    here = LocalSimulator().simulate_many(problem, ops)
+    assert pooled == here and one == here[:1]
+
+
+def test_worker_processes_give_the_in_process_scores():
+    problem, ops = _problem()
+    assert len(ops) >= 2
+    sim = LocalSimulator(processes=2, min_batch=2)
+    try:
+        pooled = sim.simulate_many(problem, ops)
+        assert len(sim.workers) == 2  # a batch of min_batch operations went to the workers
+    finally:
+        sim.close()
+    assert pooled == LocalSimulator().simulate_many(problem, ops)
+
+
+def test_close_stops_workers_that_are_still_loading():
+    sim = LocalSimulator(processes=2, prestart=True)
+    workers = list(sim.workers)
+    assert len(workers) == 2
+    sim.close()
+    assert sim.workers == []
+    assert all(not w.is_alive() for w in workers)
+
+
+def test_a_killed_worker_falls_back_to_this_process():
+    problem, ops = _problem()
+    sim = LocalSimulator(processes=2, prestart=True)
+    try:
+        sim.simulate_many(problem, ops[:1])
+        for w in list(sim.workers):
+            os.kill(w.pid, signal.SIGKILL)
+            w.join()
+        scores = sim.simulate_many(problem, ops)
+        assert not sim.prestarted and sim.workers == []
+    finally:
+        sim.close()
+    assert scores == LocalSimulator().simulate_many(problem, ops)
+
+
+def test_an_injected_simulator_is_never_forked():
+    calls = []
+
+    def fake(assembly, op, params, rng):
+        calls.append(op)
+        return SimpleNamespace(score=1.0, successes=params.trials, trials=params.trials)
+
+    problem, ops = _problem()
+    sim = LocalSimulator(fake, processes=2, prestart=True)
+    assert not sim.prestarted and sim.workers == []
+    assert [s.score for s in sim.simulate_many(problem, ops)] == [1.0] * len(ops)
+    assert calls == ops
+
+
+def test_chunks_are_their_own_seeded_runs_in_every_configuration():
+    import numpy as np
+
+    from rap.seeds import chunk_seed
+    from rap.sim.simulator import simulate
+
+    problem, ops = _problem()
+    chunks = [(op, i, n) for op in ops[:2] for i, n in enumerate((4, 8))]
+    here = LocalSimulator().simulate_chunks(problem, chunks)
+    sim = LocalSimulator(processes=2, min_batch=2)
+    try:
+        pooled = sim.simulate_chunks(problem, chunks)
+    finally:
+        sim.close()
+    assert pooled == here and [c.trials for c in here] == [4, 8, 4, 8]
+    op, i, n = chunks[1]  # the simulator itself, from the chunk's seed and trials
+    direct = simulate(problem.assembly, op, problem.params.with_(trials=n),
+                      np.random.default_rng(chunk_seed(problem.seed(op), i)))
+    assert (here[1].successes, here[1].trials) == (direct.successes, direct.trials)

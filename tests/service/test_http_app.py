@@ -1,0 +1,366 @@
+"""``rap-farm serve`` end to end: one service (a subprocess on a free loopback port) per module.
+
+Plans over HTTP checked by the swept-area plan checker and against in-process plans, 16 concurrent
+requests, malformed and invalid requests (4xx, one line, the service keeps answering), an
+interlocked assembly (``"feasible": false``), bearer-token authentication and ``plan --server``;
+hostile numbers refused at once while ``/health`` keeps answering, and fuzzed bodies
+(tests/fuzz.py, ``RAP_FUZZ_REQUESTS`` of them, default 150) that never get a 5xx.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import urllib.error
+import urllib.request
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+
+from rap.assembly import AssemblyError, assembly_to_json
+from rap.io import load_assembly
+from rap.plan.report.result import PlanResult
+from rap.plan.report.validate import check_plan
+
+from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
+from tests.fuzz import plan_bodies
+
+pytestmark = [pytest.mark.ray, pytest.mark.slow]
+
+TRIALS = 8
+TOKEN = secrets.token_urlsafe(24)
+BAD = ROOT / "tests" / "data" / "bad"
+DOVETAIL = {"name": "dovetail", "parts": [  # tests/geometry/fixtures.py DOVETAIL
+    {"id": "mortise", "polygon": [[0, 0], [10, 0], [10, 4], [6, 4], [7, 1], [3, 1], [4, 4], [0, 4]]},
+    {"id": "tenon", "polygon": [[3, 1], [7, 1], [6, 4], [10, 4], [10, 6], [0, 6], [0, 4], [4, 4]]},
+]}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _call(url: str, path: str, body: bytes | None = None, token: str | None = TOKEN,
+          method: str | None = None, timeout: float = 300) -> tuple[int, dict, dict]:
+    headers = {"Content-Type": "application/json"}
+    if token:
+        headers["Authorization"] = f"Bearer {token}"
+    req = urllib.request.Request(url + path, data=body, headers=headers, method=method)
+    try:
+        with urllib.request.urlopen(req, timeout=timeout) as r:
+            return r.status, json.loads(r.read()), dict(r.headers)
+    except urllib.error.HTTPError as exc:
+        return exc.code, json.loads(exc.read()), dict(exc.headers)
+
+
+def _body(doc: dict | str, **extra) -> bytes:
+    if isinstance(doc, str):  # raw assembly text, spliced as is
+        return ("{\"assembly\": " + doc + "".join(f", {json.dumps(k)}: {json.dumps(v)}"
+                                                 for k, v in extra.items()) + "}").encode()
+    return json.dumps({"assembly": doc, **extra}).encode()
+
+
+@pytest.fixture(scope="module")
+def service(tmp_path_factory):
+    """``rap-farm serve`` on a free loopback port with a token; its base URL."""
+    tmp = tmp_path_factory.mktemp("serve")
+    port = _free_port()
+    env = dict(ray_env(), RAP_CACHE=str(tmp / "cache.json"))
+    env.pop("RAP_FARM_TOKEN", None)
+    log = open(tmp / "serve.log", "w")
+    proc = subprocess.Popen([sys.executable, "-m", "rap.cli", "serve", "--port", str(port),
+                             "--trials", str(TRIALS), "--token", TOKEN, "--workers", "2"],
+                            cwd=tmp, env=env, stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 150
+        while True:
+            if proc.poll() is not None:
+                pytest.fail(f"rap-farm serve exited {proc.returncode}: "
+                            f"{(tmp / 'serve.log').read_text()[-2000:]}")
+            try:
+                if _call(url, "/health", timeout=5)[0] == 200:
+                    break
+            except (urllib.error.URLError, OSError, ValueError):
+                pass
+            if time.monotonic() > deadline:
+                pytest.fail("rap-farm serve did not become healthy in 150 s")
+            time.sleep(1)
+        yield url
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+        log.close()
+    text = (tmp / "serve.log").read_text()
+    assert proc.returncode == 0, text[-2000:]
+    # Serve's shutdown noise ("(raylet) Task ServeController.graceful_shutdown failed ...") stays
+    # off the console: the last line is the service's own
+    assert "(raylet)" not in text and text.endswith("stopping the planning service ...\n"), text
+
+
+def _local_plan(assembly, method: str, seed: int, processes: int = 1) -> dict:
+    """The same request planned in this process (the service's settings)."""
+    from rap.commands.plan import default_model_path
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.plan.methods import make_planner
+    from rap.plan.problem import PlanningProblem
+    from rap.model.inference.operations import OperationPredictor
+    from rap.plan.scoring.local_simulator import LocalSimulator
+    from rap.plan.scoring.scorer import Scorer
+    from rap.sim.params import SimParams
+
+    cnn = OperationPredictor.load(default_model_path(), engine="torch") if method == "rap" else None
+    problem = PlanningProblem(assembly, SimParams(trials=TRIALS), seed)
+    sim = LocalSimulator(processes=processes)
+    try:
+        return make_planner(method).solve(problem, Scorer(sim, cnn, ScoreCache())).to_json()
+    finally:
+        sim.close()
+
+
+def _same_plan(doc: dict, local: dict) -> bool:
+    """Equal documents, except the CNN's P(high), which may differ by float32 rounding (the
+    service's BLAS runs on other threads)."""
+    doc, local = json.loads(json.dumps(doc)), json.loads(json.dumps(local))
+    for d in (doc, local):
+        d.pop("seconds", None)
+    conf = [[s.pop("confidence") for s in d.get("steps", [])] for d in (doc, local)]
+    return doc == local and all((a is None and b is None) or abs(a - b) < 1e-5
+                                for a, b in zip(*conf))
+
+
+def _tiling():
+    from rap.geometry.families.simple import random_tiling
+
+    return random_tiling(6, np.random.default_rng(7), name="tiling6")
+
+
+def test_a_held_out_assembly_is_planned_validly_and_as_in_process(service):
+    asm = _tiling()
+    status, doc, headers = _call(service, "/plan", _body(assembly_to_json(asm), method="rap",
+                                                          seed=3))
+    assert status == 200, doc
+    assert {"assembly", "method", "feasible", "units", "robustness", "robustness_interval",
+            "trials", "steps", "seconds"} <= set(doc)
+    result = PlanResult.from_json(doc)
+    assert result.found and check_plan(asm, result.steps) == []
+    details = json.loads(headers["x-plan-details"])
+    # each step the CNN chose is simulated once for R (the service's cache starts cold)
+    assert details["stats"]["eval_simulations"] == sum(s["source"] == "cnn" for s in doc["steps"])
+    assert "eval_seconds" in details
+    assert _same_plan(doc, _local_plan(asm, "rap", 3))
+
+
+def test_16_concurrent_requests_are_planned_concurrently_and_correctly(service):
+    hexagon, tiling = load_assembly(ASSEMBLIES / "hexagon.json"), _tiling()
+    unique = [(asm, m, seed) for asm in (hexagon, tiling) for m in ("rap", "sim")
+              for seed in (11, 12)]
+    cases = unique + unique  # concurrent twins share their simulations in the service
+    assert len(cases) == 16
+
+    def ask(case):
+        asm, m, seed = case
+        return _call(service, "/plan", _body(assembly_to_json(asm), method=m, seed=seed))
+
+    with ThreadPoolExecutor(16) as ex:
+        answers = list(ex.map(ask, cases))
+    local = {(asm.name, m, seed): _local_plan(asm, m, seed) for asm, m, seed in unique}
+    for (asm, m, seed), (status, doc, _) in zip(cases, answers):
+        assert status == 200, doc
+        assert check_plan(asm, PlanResult.from_json(doc).steps) == []
+        assert _same_plan(doc, local[asm.name, m, seed]), (asm.name, m, seed)
+    status, health, _ = _call(service, "/health")
+    assert status == 200 and health["peak_concurrent"] > 1
+
+
+def test_an_interlocked_assembly_is_a_valid_question(service):
+    for method in ("rap", "optimal"):
+        status, doc, _ = _call(service, "/plan", _body(DOVETAIL, method=method))
+        assert status == 200, doc
+        assert doc == {"assembly": "dovetail", "method": method, "feasible": False,
+                       "interlocked": ["mortise", "tenon"],
+                       "message": "no one-step translation separates the subassembly "
+                                  "{mortise,tenon}: it is interlocked, so dovetail has no "
+                                  "assembly sequence"}
+
+
+BAD_REQUESTS = [
+    ("not json", b"{\"assembly\": ", 400),
+    ("empty body", b"", 400),
+    ("not an object", b"[1, 2]", 400),
+    ("no assembly", b"{\"method\": \"rap\"}", 400),
+    ("unknown key", _body(DOVETAIL, methd="rap"), 400),
+    ("unknown method", _body(DOVETAIL, method="best"), 400),
+    ("seed not int", _body(DOVETAIL, seed="7"), 400),
+    ("seed bool", _body(DOVETAIL, seed=True), 400),
+    ("seed float", _body(DOVETAIL, seed=1.5), 400),
+    ("seed huge", _body(DOVETAIL, seed=1 << 70), 400),
+    ("deep nesting", b"{\"assembly\": " + b"[" * 100000 + b"]" * 100000 + b"}", 400),
+    ("huge integer", b"{\"assembly\": {\"parts\": [{\"id\": \"a\", \"polygon\": [[1" + b"0" * 5000
+     + b", 0], [1, 0], [0, 1]]}]}}", 400),
+    ("too large", b"{\"assembly\": \"" + b"x" * (2 << 20) + b"\"}", 413),
+    ("too many parts", _body({"parts": [{"id": f"p{i}", "polygon": [[i, 0], [i + 1, 0], [i, 1]]}
+                                        for i in range(100)]}), 413),
+]
+
+
+@pytest.mark.parametrize("name,body,status", BAD_REQUESTS, ids=[c[0] for c in BAD_REQUESTS])
+def test_malformed_requests_get_4xx_and_one_line(service, name, body, status):
+    got, doc, _ = _call(service, "/plan", body, method="POST")
+    assert got == status, doc
+    assert list(doc) == ["error"] and "\n" not in doc["error"] and doc["error"]
+
+
+@pytest.mark.parametrize("path", sorted(BAD.glob("*.json")), ids=lambda p: p.stem)
+def test_invalid_assemblies_get_the_cli_message(service, path):
+    text = path.read_text()
+    status, doc, _ = _call(service, "/plan", _body(text))
+    assert status == 400, doc
+    with pytest.raises(AssemblyError) as cli:
+        load_assembly(path)
+    if "not valid JSON" not in str(cli.value):  # syntax errors name other positions
+        where = f"part {cli.value.part!r}: " if cli.value.part is not None else ""
+        assert doc["error"] == f"assembly: {where}{cli.value.problem}"
+
+
+TANGRAM = ROOT / "assemblies" / "unseen" / "tangram.json"
+FUZZ_REQUESTS = int(os.environ.get("RAP_FUZZ_REQUESTS", "150"))
+
+
+def test_a_tiny_hostile_file_is_refused_at_once_while_health_answers(service):
+    tiny = TANGRAM.read_text().replace("[0,0]", "[1e-1000000,0]", 1)  # a few hundred bytes
+    huge = TANGRAM.read_text().replace("[0,0]", "[1e10000000,0]", 1)
+    stop, health = threading.Event(), []
+
+    def poll():  # the harness's bound: each /health answer within 5 s, else the call raises
+        while not stop.is_set():
+            health.append(_call(service, "/health", timeout=5)[0])
+            time.sleep(0.05)
+
+    poller = ThreadPoolExecutor(1)
+    polling = poller.submit(poll)
+    try:
+        for text, needle in ((tiny, "more than 6 digits after the point"),
+                             (huge, "out of range (|x| <= 10^9)")):
+            for _ in range(3):
+                status, doc, _ = _call(service, "/plan", _body(text), timeout=10)
+                assert status == 400 and needle in doc["error"], doc
+                assert doc["error"].startswith("assembly: part 'large-a': coordinate 1E")
+        # a valid request at the worst case of validation (a 10,000-vertex star, seconds of exact
+        # work on a reader thread): planned or 503 past the read budget, never a blocked loop
+        before = len(health)
+        status, doc, _ = _call(service, "/plan", _body(_star(10_000), method="sim"), timeout=60)
+        assert status in (200, 503), doc
+        assert len(health) > before  # /health was answered while the star was validated
+    finally:
+        stop.set()
+        polling.result(timeout=30)
+        poller.shutdown()
+    assert health and set(health) == {200}
+
+
+def _star(q: int) -> dict:
+    import math
+
+    pts = [[round((10**8 if k % 2 == 0 else 10**5) * math.cos(2 * math.pi * k / q)),
+            round((10**8 if k % 2 == 0 else 10**5) * math.sin(2 * math.pi * k / q))]
+           for k in range(q)]
+    return {"name": "star", "parts": [{"id": "star", "polygon": pts}]}
+
+
+@settings(max_examples=FUZZ_REQUESTS, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(body=plan_bodies())
+def test_fuzzed_requests_get_a_4xx_or_a_plan_never_a_5xx(service, body):
+    status, doc, _ = _call(service, "/plan", body, method="POST", timeout=120)
+    assert status in (200, 400, 413), (status, doc)
+    if status == 200:
+        assert doc["feasible"] in (True, False, None) and doc["assembly"]
+    else:
+        assert list(doc) == ["error"] and "\n" not in doc["error"] and doc["error"]
+
+
+def test_authentication_and_other_routes(service):
+    body = _body(DOVETAIL)
+    assert _call(service, "/plan", body, token=None)[0] == 401
+    assert _call(service, "/plan", body, token="x" * 32)[0] == 401
+    status, doc, headers = _call(service, "/health", token=None)
+    assert status == 401 and doc["error"] and headers.get("www-authenticate") == "Bearer"
+    assert _call(service, "/nope")[0] == 404
+    assert _call(service, "/plan", method="GET")[0] == 405
+    with urllib.request.urlopen(service + "/docs", timeout=30) as r:
+        assert r.status == 200
+    with urllib.request.urlopen(service + "/openapi.json", timeout=30) as r:
+        spec = json.loads(r.read())
+    assert "/plan" in spec["paths"] and "/health" in spec["paths"]
+
+
+def test_the_service_still_plans_after_the_bad_requests(service):
+    status, health, _ = _call(service, "/health")
+    assert status == 200 and health["status"] == "ok" and health["workers"] == 2
+    asm = load_assembly(ASSEMBLIES / "hexagon.json")
+    status, doc, _ = _call(service, "/plan", _body(assembly_to_json(asm), method="sim", seed=1))
+    assert status == 200 and check_plan(asm, PlanResult.from_json(doc).steps) == []
+
+
+def _cli(*args, cwd: Path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env.pop("RAP_FARM_TOKEN", None)
+    return subprocess.run([sys.executable, "-m", "rap.cli", "plan", *map(str, args)],
+                          capture_output=True, text=True, env=env, cwd=cwd, timeout=300)
+
+
+def test_plan_server_prints_and_writes_what_the_service_planned(service, tmp_path):
+    src = ASSEMBLIES / "hexagon.json"
+    out, pic = tmp_path / "plan.json", tmp_path / "plan.png"
+    p = _cli(src, "--server", service, "--token", TOKEN, "--seed", "5", "--out", out,
+             "--picture", pic, cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert "robustness R" in p.stdout and "hexagon: search plan" in p.stdout  # the default method
+    status, doc, _ = _call(service, "/plan", _body(json.loads(src.read_text()), seed=5))
+    assert _same_plan(json.loads(out.read_text()), doc)
+    assert pic.stat().st_size > 1000
+
+    dove = tmp_path / "dovetail.json"
+    dove.write_text(json.dumps(DOVETAIL))
+    p = _cli(dove, "--server", service, "--token", TOKEN, "--out", tmp_path / "d.json",
+             cwd=tmp_path)
+    assert p.returncode == 1 and "interlocked" in p.stderr and "Traceback" not in p.stderr
+    assert json.loads((tmp_path / "d.json").read_text())["feasible"] is False
+
+    p = _cli(dove, "--server", service, cwd=tmp_path)  # no token
+    assert p.returncode == 2 and "not authorised" in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+
+
+def test_search_options_travel_with_the_request(service, tmp_path):
+    src = ASSEMBLIES / "hexagon.json"
+    out = tmp_path / "p.json"
+    p = _cli(src, "--server", service, "--token", TOKEN, "--simulations", "1000", "--optimism",
+             "1", "--out", out, cwd=tmp_path)  # full optimism: every step from the simulator
+    assert p.returncode == 0, p.stderr
+    assert all(step["source"] == "sim" for step in json.loads(out.read_text())["steps"])
+    # without simulations (the default spends them where they decide) the model chooses
+    plain = _call(service, "/plan", _body(json.loads(src.read_text()),
+                                          options={"simulations": 0}))[1]
+    assert not all(step["source"] == "sim" for step in plain["steps"])
+    status, doc, _ = _call(service, "/plan", _body(json.loads(src.read_text()),
+                                                   options={"optimism": 2}))
+    assert status == 400 and "options.optimism 2" in doc["error"]
