@@ -28,7 +28,8 @@ Settings (``--settings``, comma-separated names; default: all below):
   choice settles, by the bounds, until within the gap (``rap.plan.search.planner``, phase 2); ``-p1``:
   phase 1 only, the gap only stopping it earlier (what every gap setting meant before phase 2,
   e.g. ``b200-c95-g5-u35-p1``, the default's numbers before it). ``-aK``: the per-assembly
-  score correction (``rap.plan.search.score_correction``) with prior strength K.
+  score correction (``research.variants.score_correction``) with prior strength K. ``-p1`` and
+  ``-aK`` were measured at commit 48873fe: the search lost those hooks in 0.3.0.
 
 The bounds are ``--bounds`` (default the shipped ``rap/data/score_bounds.json``, fitted on the
 ``fresh`` set by ``research.score_bounds_calibration``: its coverage on ``fresh`` is in-sample,
@@ -74,17 +75,20 @@ def planner_of(setting: str, bounds):
         raise ValueError(f"setting {setting!r}: old, s200-o10, sim or "
                          f"bN-cC[-gG][-tT][-uU][-oO][-aK][-p1]")
     n, c, g, t, u, o, a, p1 = m.groups()
+    if a is not None or p1 is not None:
+        raise ValueError(f"setting {setting!r}: -aK and -p1 name hooks removed from the search in "
+                         f"0.3.0; their figures were measured at commit 48873fe (run this script "
+                         f"from a worktree of it)")
     return SearchPlanner(simulations=int(n), confidence=int(c) / 100,
                          gap=None if g is None else int(g) / 100,
                          trust=None if t is None else int(t) / 100,
                          upper=1.0 if u is None else int(u) / 100,
-                         optimism=0.0 if o is None else int(o) / 100, bounds=bounds,
-                         tighten=p1 is None, adapt=None if a is None else float(a))
+                         optimism=0.0 if o is None else int(o) / 100, bounds=bounds)
 
 
 def optimum(problem, graph, truth) -> float:
     """R opt: the DP over the simulated scores."""
-    from rap.plan.graph import dp_choice
+    from rap.plan.dp import dp_choice
 
     best, _ = dp_choice(graph, {s: [truth[problem.key(op)] for op in c] for s, c in graph.items()})
     return best[problem.whole]

@@ -41,7 +41,7 @@ HIGH = 0.95  # the class threshold of the paper and the corpus
 
 def optimum(problem, graph: dict, truth: dict) -> float:
     """The optimum's robustness: the DP over ``truth`` (key -> simulated score) on ``graph``."""
-    from rap.plan.graph import dp_choice
+    from rap.plan.dp import dp_choice
 
     best, _ = dp_choice(graph, {s: [truth[problem.key(op)] for op in c] for s, c in graph.items()})
     return best[problem.whole]

@@ -1,6 +1,6 @@
 """Sequential tests in the search, replayed on score tables: trials saved against plans changed.
 
-Replays ``SearchPlanner`` with and without ``sequential`` (``rap.plan.search.screening``) on the score
+Replays ``SearchPlanner`` with and without ``sequential`` (``research.variants.screening``) on the score
 tables of ``research.search_validation`` (``research.validation_tables``: the model's expected
 scores and every operation's 100-trial label). A REPLAY, not the simulator: a full simulation is
 the table's label; a chunk of ``n`` trials is a binomial draw ``Binomial(n, label)`` from the
@@ -13,7 +13,7 @@ planning (full simulations x 100 + chunk trials), R (labels), R / R opt, whether
 
 Settings: the planner is ``plan``'s default search (``SearchOptions``; ``--options upper=1.0,gap=0``
 changes some) with ``--sequential D`` for each D of ``--deltas``; ``--chunks 20,20,20`` the
-schedule (default: the library's, ``rap.sim.sequential.DEFAULT_CHUNKS``). Cost: about a second
+schedule (default: the library's, ``research.variants.sequential.DEFAULT_CHUNKS``). Cost: about a second
 per (setting, assembly) on one core; nothing is simulated.
 """
 
@@ -51,7 +51,7 @@ def plan(tab: dict, problem, sequential: float | None, chunks: tuple[int, ...], 
     from rap.plan.scoring.cache import ScoreCache
     from rap.plan.methods import make_planner
     from rap.plan.scoring.scorer import Scorer
-    from rap.sim.sequential import SequentialTest
+    from research.variants.sequential import SequentialTest
 
     planner = make_planner("search", sequential=sequential, **options)
     planner.bounds = bounds
@@ -75,18 +75,19 @@ def main() -> None:
     ap.add_argument("--set", choices=("fresh", "unseen", "validation", "test"), default="fresh")
     ap.add_argument("--deltas", default="0.05")
     ap.add_argument("--chunks", default="", help="trials per chunk, e.g. 20,20,20 (default: "
-                                                  "rap.sim.sequential.DEFAULT_CHUNKS)")
+                                                  "research.variants.sequential.DEFAULT_CHUNKS)")
     ap.add_argument("--only", default="")
     ap.add_argument("--options", default="", help="other search options, e.g. upper=1,gap=0")
     ap.add_argument("--cache", default=str(ROOT / "reports" / "search-validation"))
     a = ap.parse_args()
     from rap.model.calibration import load
-    from rap.plan.graph import dp_choice, reachable
+    from rap.plan.dp import dp_choice
+    from rap.plan.graph import reachable
 
     bounds = load()
     options = {k: float(v) if "." in v else int(v)
                for k, v in (x.split("=") for x in a.options.split(",") if x)}
-    from rap.sim.sequential import DEFAULT_CHUNKS
+    from research.variants.sequential import DEFAULT_CHUNKS
 
     chunks = tuple(int(x) for x in a.chunks.split(",")) if a.chunks else DEFAULT_CHUNKS
     deltas = [float(x) for x in a.deltas.split(",")]

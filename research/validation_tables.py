@@ -217,7 +217,8 @@ def evaluate(name: str, tab: dict, trust: float | None, simulations: int,
              optimism: float = 0.0) -> tuple[float, int]:
     """(R / R optimal, simulations while planning) of search on the lookup tables."""
     from rap.plan.scoring.cache import ScoreCache
-    from rap.plan.graph import dp_choice, reachable
+    from rap.plan.dp import dp_choice
+    from rap.plan.graph import reachable
     from rap.plan.scoring.scorer import Scorer
     from rap.plan.search.planner import SearchPlanner
 

@@ -76,7 +76,6 @@ def bound_lines(result) -> list[str]:
            f"{100 * (1 - gap):.1f}% of the optimum's robustness (gap {100 * gap:.1f}%)"
            + (f" ({b['note']})" if b.get("note") else "")]
     n = st.get("stopped_after", 0)
-    n = f"{n:g}" if isinstance(n, float) else n  # sequential tests count chunks as shares
     if st.get("stopped") == "gap":
         out.append(f"stopped at --gap {st['gap']:g} after {n} simulations")
     elif st.get("stopped") == "bound":
@@ -151,9 +150,6 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                else f"beam of width {st.get('beam_width')}")
         facts.append(f"search: {how}, {st.get('predicted_operations', 0)} operations scored by "
                      f"the model, {st.get('search_simulations', 0)} simulated while planning")
-        if "search_partial" in st:
-            facts.append(f"sequential tests: {st['search_partial']} operations stopped early, "
-                         f"{st.get('search_trials', 0):,} trials while planning")
     if result.method == "optimal" and "subassemblies" in st:
         facts.append(f"DP over {st['subassemblies']} subassemblies / {st['operations']} operations "
                      f"vs. {st['exhaustive_sequences']:,} sequences for an exhaustive search "

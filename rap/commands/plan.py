@@ -142,7 +142,6 @@ def plan_command(
     upper: float = _method_flag("upper"),
     confidence: float = _method_flag("confidence"),
     gap: float = _method_flag("gap"),
-    sequential: float = _method_flag("sequential"),
     # the robot cell's constraints (rap.plan.cell.constraints; docs/PLANNING.md, Robot-cell constraints)
     base: str = BASE, linear: bool = LINEAR, directions: list[str] = DIRECTIONS,
     gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,
@@ -159,7 +158,7 @@ def plan_command(
     options = dict(samples=samples, fallback_k=fallback_k, high_probability=high_probability,
                    fallback_optimism=fallback_optimism, beam_width=beam_width,
                    simulations=simulations, trust=trust, optimism=optimism, upper=upper,
-                   confidence=confidence, gap=gap, sequential=sequential)  # None: not given
+                   confidence=confidence, gap=gap)  # None: not given
     _check_request(method, space, options, out, picture, err)
     cell = cell_constraints(base, linear, directions, gravity, friction, layers)
     _check_suffix(csv, "--csv", (".csv",))
@@ -201,9 +200,9 @@ def _check_request(method: str, space: str, options: dict, out, picture, err) ->
     except ParameterError as exc:
         raise InputError(exc.for_name(_flag(exc.parameter))) from None
     if ((options["trust"] is not None or options["optimism"] or options["upper"]
-         or options["gap"] is not None or options["sequential"])
+         or options["gap"] is not None)
             and not options["simulations"]):
-        err.print("[yellow]warning:[/] --trust, --optimism, --upper, --gap and --sequential "
+        err.print("[yellow]warning:[/] --trust, --optimism, --upper and --gap "
                   "choose what to simulate: without --simulations N they change nothing")
     _check_suffix(out, "--out", (".json",))
     _check_suffix(picture, "--picture", (".png", ".svg"))

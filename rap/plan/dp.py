@@ -1,6 +1,23 @@
-"""The optimum's dynamic program by branch and bound: score only the operations that can matter.
+"""The dynamic programmes over the AND/OR graph: the best product of scores below a subassembly.
 
-``dp_choice_bounded(graph, scores_of, whole)`` returns what ``rap.plan.graph.dp_choice`` and
+Every planner that maximises a product of step scores over sequences does it here
+(``best(S) = max over candidates of r(op) best(M) best(F)``, ``best`` of a single part 1, of a
+dead end 0; ties to the first candidate in the problem's order, ``argmax_first``):
+
+* ``dp_choice(graph, score_of)``: every subassembly, smallest first, with every score given
+  (the optimum's DP over simulated scores); ``dp_tree`` the tree its choice picks. O(operations).
+* ``dp_choice_bounded(graph, scores_of, whole)``: the same choice by branch and bound, asking for
+  scores only where they can matter (the search's DP over predicted scores; below).
+* ``max_value(graph, scores_of, whole)``: the best value alone, ties pruned (the search's bound).
+
+Example::
+
+    graph = reachable(problem)                 # rap.plan.graph
+    best, arg = dp_choice(graph, {s: [1.0] * len(c) for s, c in graph.items()})
+    tree = dp_tree(graph, arg, problem.whole)   # {subassembly: (index, operation)}
+
+Branch and bound (``dp_choice_bounded``):
+``dp_choice_bounded(graph, scores_of, whole)`` returns what ``dp_choice`` and
 ``dp_tree`` give for ``whole`` (``best(S) = max r(op) best(M) best(F)``, the first maximising
 candidate in ``graph[S]`` order; the same floats, multiplied in the same order), but asks for the
 scores of a subassembly's candidates (``scores_of(S)``) only when it visits ``S``, and visits ``S``
@@ -25,11 +42,56 @@ from __future__ import annotations
 import math
 from typing import Callable, Sequence
 
-from rap.plan.graph import Graph, Tree, dp_tree
+from rap.plan.graph import Graph, Tree
 
-__all__ = ["dp_choice_bounded", "SLACK"]
+__all__ = ["dp_choice", "dp_tree", "dp_choice_bounded", "max_value", "argmax_first", "SLACK"]
 
 SLACK = 1.0 - 1e-9  # prune only below (1 - 1e-9) x the bar: rounding never hides a tie
+
+
+def argmax_first(values: Sequence[float]) -> int:
+    """The index of the largest value, the first one on ties (0 for an empty sequence)."""
+    best, idx = -float("inf"), 0
+    for i, v in enumerate(values):
+        if v > best:
+            best, idx = v, i
+    return idx
+
+
+def dp_choice(graph: Graph, score_of: dict[frozenset, Sequence[float]]) -> tuple[dict, dict]:
+    """``best(S) = max over candidates of r(op) * best(M) * best(F)`` (``best`` of a single part:
+    1; of a dead end: 0) for every subassembly of ``graph``, smallest first; ``arg[S]`` the index
+    of the first maximising candidate. ``score_of[S]``: the scores of ``graph[S]`` in order.
+    O(operations)."""
+    best: dict[frozenset, float] = {}
+    arg: dict[frozenset, int] = {}
+
+    def b(x):
+        return best.get(x, 0.0) if len(x) >= 2 else 1.0
+
+    for s in sorted(graph, key=len):
+        vals = [r * b(op.moving) * b(op.fixed) for op, r in zip(graph[s], score_of[s])]
+        if not vals:
+            best[s] = 0.0
+            continue
+        i = argmax_first(vals)
+        best[s], arg[s] = vals[i], i
+    return best, arg
+
+
+def dp_tree(graph: Graph, arg: dict[frozenset, int], whole: frozenset) -> Tree:
+    """The disassembly tree that ``arg`` (from ``dp_choice``) picks below ``whole``: subassembly ->
+    (candidate index, operation) for every composite subassembly of it. O(parts)."""
+    tree: Tree = {}
+    stack = [whole]
+    while stack:
+        s = stack.pop()
+        if len(s) < 2:
+            continue
+        op = graph[s][arg[s]]
+        tree[s] = (arg[s], op)
+        stack += [op.moving, op.fixed]
+    return tree
 
 
 def dp_choice_bounded(graph: Graph, scores_of: Callable[[frozenset], Sequence[float]],
@@ -93,3 +155,51 @@ def dp_choice_bounded(graph: Graph, scores_of: Callable[[frozenset], Sequence[fl
     if best <= 0.0:
         return 0.0, {}  # no sequence: the caller names the dead end (``dead_end``)
     return best, dp_tree(graph, {s: i for s, (_, i) in exact.items()}, whole)
+
+
+def max_value(graph: Graph, scores_of, whole: frozenset,
+              memo: tuple[dict, dict] | None = None) -> float:
+    """``max over sequences of the product of scores`` below ``whole`` (1 for a single part, 0
+    when none exists); ``scores_of(S)``: the scores in [0, 1] of ``graph[S]`` in order, asked at
+    most once per subassembly. Branch and bound as ``rap.plan.dp``, but a candidate that
+    can at most tie is pruned (only the value is wanted). Recursion depth at most the parts.
+    ``memo``: ``(exact, bounded)`` kept between calls, as ``dp_choice_bounded``'s."""
+    exact: dict[frozenset, float]
+    bounded: dict[frozenset, float]
+    exact, bounded = memo if memo is not None else ({}, {})
+    asked: dict[frozenset, list] = {}
+
+    def value(s: frozenset, tau: float) -> tuple[float, bool]:
+        # best(s) exactly when it exceeds tau; else (a number <= tau that is >= best(s), False)
+        if len(s) < 2:
+            return 1.0, True
+        if s in exact:
+            return exact[s], True
+        if s in bounded and bounded[s] <= tau:
+            return bounded[s], False
+        cands = graph[s]
+        if s not in asked:
+            asked[s] = list(scores_of(s)) if cands else []
+        scores = asked[s]
+        best = 0.0
+        for i in sorted(range(len(cands)), key=lambda j: -scores[j]):
+            r = scores[i]
+            cut = max(best, tau)
+            if r <= cut or r <= 0.0:
+                break  # sorted: nothing later can beat the cut
+            vm, ok = value(cands[i].moving, cut / r)
+            if not ok or r * vm <= cut:
+                continue
+            vf, ok = value(cands[i].fixed, cut / (r * vm))
+            if ok and r * vm * vf > best:
+                best = r * vm * vf
+        if best > tau:
+            exact[s] = best
+            return best, True
+        bounded[s] = max(tau, 0.0)
+        return bounded[s], False
+
+    if len(whole) < 2:
+        return 1.0
+    v, ok = value(whole, -1.0)
+    return v if ok else 0.0

@@ -10,28 +10,19 @@ geometric graph of an NDBG's partitions below it.
 * ``reachable(problem, max_operations=None) -> Graph``: the walk (depth first, each subassembly
   once); past ``max_operations`` candidate operations in all it raises ``TooLarge``. Cost: one
   ``candidates`` call per reachable composite subassembly (memoised by the problem).
-* ``dp_choice(graph, score_of)``: ``best(S) = max over candidates of r(op) best(M) best(F)``
-  (``best`` of a single part 1, of a dead end 0) for every subassembly, smallest first, and the
-  first maximising candidate of each; ``dp_tree`` the decomposition tree that choice picks below
-  the whole; ``dead_end`` the subassembly to blame when no sequence exists. O(operations).
-  ``rap.plan.dp`` gives the same choice by branch and bound, scoring fewer operations.
+* ``dead_end(graph, whole)``: the subassembly to blame when no sequence exists.
+* The dynamic programmes over the graph (the best product of scores) are in ``rap.plan.dp``.
 * ``assembly_order(choice, whole)``: a decomposition tree's steps in assembly order (children
   before parents).
 * ``Interlocked`` (a planner met a subassembly with no way on; ``subset`` names it) and
   ``TooLarge`` (the graph exceeds its operation budget): the errors of a search over the graph.
 
-Ties go to the first candidate in the problem's order (``argmax_first``). No ray, no torch.
-
-Example::
-
-    graph = reachable(problem)
-    best, arg = dp_choice(graph, {s: [1.0] * len(c) for s, c in graph.items()})
-    tree = dp_tree(graph, arg, problem.whole)   # {subassembly: (index, operation)}
+No ray, no torch.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING
 
 from rap.operation import Operation
 
@@ -39,8 +30,7 @@ if TYPE_CHECKING:
     from rap.plan.problem import PlanningProblem
     from rap.plan.report.result import PlanStep
 
-__all__ = ["Graph", "Tree", "Interlocked", "TooLarge", "reachable", "dp_choice", "dp_tree",
-           "dead_end", "assembly_order", "argmax_first"]
+__all__ = ["Graph", "Tree", "Interlocked", "TooLarge", "reachable", "dead_end", "assembly_order"]
 
 #: subassembly -> its candidate operations (empty: interlocked)
 Graph = dict[frozenset, tuple[Operation, ...]]
@@ -80,51 +70,6 @@ def reachable(problem: PlanningProblem, max_operations: int | None = None) -> Gr
         for op in c:
             stack += [op.moving, op.fixed]
     return seen
-
-
-def argmax_first(values: Sequence[float]) -> int:
-    """The index of the largest value, the first one on ties (0 for an empty sequence)."""
-    best, idx = -float("inf"), 0
-    for i, v in enumerate(values):
-        if v > best:
-            best, idx = v, i
-    return idx
-
-
-def dp_choice(graph: Graph, score_of: dict[frozenset, Sequence[float]]) -> tuple[dict, dict]:
-    """``best(S) = max over candidates of r(op) * best(M) * best(F)`` (``best`` of a single part:
-    1; of a dead end: 0) for every subassembly of ``graph``, smallest first; ``arg[S]`` the index
-    of the first maximising candidate. ``score_of[S]``: the scores of ``graph[S]`` in order.
-    O(operations)."""
-    best: dict[frozenset, float] = {}
-    arg: dict[frozenset, int] = {}
-
-    def b(x):
-        return best.get(x, 0.0) if len(x) >= 2 else 1.0
-
-    for s in sorted(graph, key=len):
-        vals = [r * b(op.moving) * b(op.fixed) for op, r in zip(graph[s], score_of[s])]
-        if not vals:
-            best[s] = 0.0
-            continue
-        i = argmax_first(vals)
-        best[s], arg[s] = vals[i], i
-    return best, arg
-
-
-def dp_tree(graph: Graph, arg: dict[frozenset, int], whole: frozenset) -> Tree:
-    """The disassembly tree that ``arg`` (from ``dp_choice``) picks below ``whole``: subassembly ->
-    (candidate index, operation) for every composite subassembly of it. O(parts)."""
-    tree: Tree = {}
-    stack = [whole]
-    while stack:
-        s = stack.pop()
-        if len(s) < 2:
-            continue
-        op = graph[s][arg[s]]
-        tree[s] = (arg[s], op)
-        stack += [op.moving, op.fixed]
-    return tree
 
 
 def dead_end(graph: Graph, whole: frozenset) -> frozenset:

@@ -172,13 +172,6 @@ class SearchOptions(PlannerOptions):
              "is within GAP of the bound on the optimum, going on by the bounds after the "
              "choice is settled, or until the budget is spent (0.05: 5%; 0: off, stop when the "
              "choice is settled or the budget spent)")
-    sequential: float | None = option(
-        float, None, low=0.0, high=0.5, low_open=True, noun="an error rate", code="q",
-        code_name="D", percent=True, service=False, default_help="off: every simulation in full",
-        help="Method {method} with {simulations}: stop an operation's simulation after 10 "
-             "trials when they show, at error rate D, that it cannot keep the choice ahead of "
-             "the best simulated sequence (a sequential test; the plan's steps keep their "
-             "100-trial scores)")
     beam_width: int = option(int, DEFAULT_BEAM, low=1, code="w", code_name="W",
                              help="Method {method}: beam width beyond the exact search's budget")
     max_operations: int = option(

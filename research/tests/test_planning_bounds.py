@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from rap.plan.graph import dp_choice, reachable
+from rap.plan.dp import dp_choice
+from rap.plan.graph import reachable
 from rap.plan.problem import PlanningProblem
 from rap.sim.params import SimParams
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rap.plan.dp import dp_choice_bounded
-from rap.plan.graph import dp_choice, dp_tree, reachable
+from rap.plan.dp import dp_choice, dp_choice_bounded, dp_tree
+from rap.plan.graph import reachable
 from rap.plan.problem import PlanningProblem
 from rap.sim.params import SimParams
 

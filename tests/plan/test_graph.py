@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from rap.plan.graph import (TooLarge, argmax_first, assembly_order, dead_end, dp_choice, dp_tree,
-                            reachable)
+from rap.plan.dp import argmax_first, dp_choice, dp_tree
+from rap.plan.graph import TooLarge, assembly_order, dead_end, reachable
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanStep
 from rap.sim.params import SimParams

@@ -121,14 +121,3 @@ def test_the_service_takes_the_declared_options_default_method_first():
     method, opt = option_named("optimism")
     assert method == "search" and isinstance(opt, Option) and (opt.low, opt.high) == (0.0, 1.0)
     assert opt.help_text(method, lambda n: "--" + n).startswith("Method search with --simulations")
-
-
-def test_sequential_is_an_error_rate_off_by_default_and_not_a_service_option():
-    assert make_planner("search").sequential is None
-    planner = make_planner("search", sequential=0.05)
-    assert planner.sequential.delta == 0.05
-    assert from_table_name("search-q5").sequential == 0.05
-    assert "sequential" not in service_options()  # the service's pool runs no chunks
-    for bad in (0.0, 0.6, -1.0):
-        with pytest.raises(ParameterError):
-            make_planner("search", sequential=bad)

@@ -44,8 +44,8 @@ from typing import Sequence
 import numpy as np
 
 from rap.operation import Operation
-from rap.plan.graph import (Interlocked, argmax_first, assembly_order, dead_end, dp_choice,
-                            dp_tree, reachable)
+from rap.plan.dp import argmax_first, dp_choice, dp_tree
+from rap.plan.graph import Interlocked, assembly_order, dead_end, reachable
 from rap.plan.report.poses import annotate_plan
 from rap.plan.cell.rules import blocked_by, constraint_stats
 from rap.plan.problem import PlanningProblem

@@ -15,7 +15,7 @@ processes it starts (``LocalSimulator.workers``), so that ``close()`` can stop w
 loading the simulator with public calls only (``Process.terminate``, then ``shutdown(wait=True)``;
 ``terminate_workers`` on Python 3.14 and later).
 
-``simulate_chunks(problem, chunks)``: the chunks of sequential tests (``rap.sim.sequential``),
+``simulate_chunks(problem, chunks)``: the chunks of sequential tests (``research.variants.sequential``),
 each ``(op, index, trials)`` one run of ``trials`` trials from ``chunk_seed(problem.seed(op),
 index)``, in the same way (never cached: not labels).
 
@@ -41,7 +41,6 @@ import numpy as np
 from rap.operation import Operation
 from rap.plan.scoring.cache import CachedScore
 from rap.plan.problem import PlanningProblem
-from rap.seeds import chunk_seed
 
 __all__ = ["LocalSimulator", "MIN_PROCESS_BATCH", "WARM_NICE"]
 
@@ -154,13 +153,6 @@ class LocalSimulator:
 
     def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
         return self._run([(problem.assembly, op, problem.params, problem.seed(op)) for op in ops])
-
-    def simulate_chunks(self, problem: PlanningProblem,
-                        chunks: Sequence[tuple[Operation, int, int]]) -> list[CachedScore]:
-        """Each ``(op, index, trials)``: ``trials`` trials from ``chunk_seed(problem.seed(op),
-        index)``, in input order (module doc)."""
-        return self._run([(problem.assembly, op, problem.params.with_(trials=int(n)),
-                           chunk_seed(problem.seed(op), int(i))) for op, i, n in chunks])
 
     def _run(self, jobs: list) -> list[CachedScore]:
         pool = self._pool() if self.prestarted or len(jobs) >= self.min_batch else None

@@ -11,11 +11,6 @@ A planner sees one object, ``Scorer``, with two questions:
   score; what search multiplies); ``prob_high_and_expected``: both from one pass (what RAP ranks
   by).
 
-* ``chunks(problem, [(op, index, trials), ...]) -> list[CachedScore]``: runs of the sequential
-  tests (``rap.sim.sequential``), one backend call, never cached (they are not labels: a label
-  keeps its fixed trials), where the backend offers ``simulate_chunks`` (``chunked``; the farm's
-  pool does not, and a search then simulates in full).
-
 Backends: a simulator (``SimBackend``: ``simulate_many(problem, ops) -> list[CachedScore]``), such as
 ``rap.plan.scoring.local_simulator.LocalSimulator`` (this machine, optionally over forked worker processes)
 or the farm's pool; a CNN (``CnnBackend``), such as ``rap.model.inference.operations.OperationPredictor`` (renders
@@ -83,9 +78,7 @@ class ScorerStats:
     cache_hits: int = 0
     sim_calls: int = 0  # backend calls (batches)
     sim_seconds: float = 0.0
-    sim_trials: int = 0  # trials of the fresh simulations and chunks
-    chunk_runs: int = 0  # chunks of sequential tests run (``Scorer.chunks``)
-    chunk_trials: int = 0  # their trials
+    sim_trials: int = 0  # trials of the fresh simulations
     cnn_batches: int = 0
     cnn_ops: int = 0
     cnn_seconds: float = 0.0
@@ -157,42 +150,8 @@ class Scorer:
         return found  # type: ignore[return-value]
 
     def _spent(self, problem: PlanningProblem) -> float:
-        """Fresh simulations so far, a chunk counting its share of a full one."""
-        st = self.stats
-        if not st.chunk_trials:
-            return st.sim_run
-        return st.sim_run + st.chunk_trials / problem.params.trials
-
-    @property
-    def chunked(self) -> bool:
-        """Whether the simulator backend runs the chunks of sequential tests."""
-        return hasattr(self.simulator, "simulate_chunks")
-
-    def chunks(self, problem: PlanningProblem,
-               chunks: Sequence[tuple[Operation, int, int]]) -> list[CachedScore]:
-        """Each ``(op, index, trials)`` simulated as chunk ``index`` of ``op``'s sequential test
-        (``trials`` trials, its own seed), in input order; one backend call, not cached. A budget
-        of simulations counts ``trials / problem.params.trials`` of one per chunk."""
-        self._check_time()
-        chunks = list(chunks)
-        if not chunks:
-            return []
-        st, b = self.stats, self.budget
-        if b.max_simulations is not None and (self._spent(problem) + sum(n for _, _, n in chunks)
-                                              / problem.params.trials > b.max_simulations):
-            raise BudgetSpent(f"simulation budget of {b.max_simulations} spent")
-        self._progress(len(chunks))
-        t = time.perf_counter()
-        got = self.simulator.simulate_chunks(problem, chunks)
-        st.sim_seconds += time.perf_counter() - t
-        st.sim_calls += 1
-        if len(got) != len(chunks):
-            raise RuntimeError("simulator backend returned a wrong number of results")
-        st.chunk_runs += len(chunks)
-        st.chunk_trials += sum(c.trials for c in got)
-        st.sim_trials += sum(c.trials for c in got)
-        self._progress(0)
-        return list(got)
+        """Fresh simulations so far (what a budget of simulations counts)."""
+        return self.stats.sim_run
 
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The CNN's P(high) for each operation, one batch. Raises when no CNN is loaded."""

@@ -67,32 +67,17 @@ only where it decides:
    with trusted operations in it): phase 2 can only lower ``V`` or find a better fully
    simulated plan, never return a worse one than phase 1's. ``stats``: ``phase1_simulations``,
    ``phase2_simulations``, ``search_bound`` (``V`` when it stopped). The same in beam mode,
-   over the final beam's sequences. ``tighten=False``: no phase 2 (``gap`` only stops the
-   search earlier, as before phase 2 existed). With ``upper`` 1, no optimism and no trust,
-   phase 1 is this already.
-   With ``adapt`` ``k`` (None: off) the model's scores are corrected per assembly while the
-   search runs, by logit shifts per bin of ``p`` fitted on the operations it has simulated,
-   shrunk with prior strength ``k`` (``rap.plan.search.score_correction``): ``known`` and the
-   choosing scores use the corrected ``p``, the bounds (and ``V``) do not.
+   over the final beam's sequences. With ``upper`` 1, no optimism and no trust, phase 1 is
+   this already.
 6. **A bound with every plan**: after the plan's steps are simulated for evaluation, ``V`` is
    computed again with those scores (so it is never below the plan's own robustness ``R``) and
    reported as ``PlanResult.bound``: ``{"robustness_upper": V, "confidence", "gap": 1 - R / V,
    "scope", "note"}`` (``rap.plan.search.scores.report``); its time and CNN batches are in the
    stats (``bound_seconds``), not in ``seconds``.
-7. **Sequential tests** (``sequential`` ``delta``; None: off): with an incumbent ``I``, an
-   operation of the choice is simulated only until its score is shown, at error rate ``delta``,
-   below ``tau = I / (the product of the choice's other steps' scores)``, the least it needs to
-   keep the choice ahead of ``I`` (``rap.plan.search.screening``: a chunk of 10 trials,
-   ``rap.sim.sequential``); it is then *partly simulated* (its chunk's upper bound is what the
-   search chooses it by) and the choice moves on; otherwise it gets its fixed 100-trial
-   simulation. The budget counts a chunk as its share of a simulation. Without an incumbent, or
-   with a backend that runs no chunks (the planning service's pool), every simulation is full.
-   The plan's steps always get their 100-trial scores (the evaluation); a chunk is never a
-   step's score nor cached. ``stats``: ``search_partial`` (the operations left partly
-   simulated), ``search_trials`` (trials simulated while planning). Measured: no cheaper than
-   without (``research/sequential_replay.py``, docs/RESULTS.md: the comparisons a search with an
-   incumbent makes are near ties, which 10 to 60 trials cannot decide, and most simulations come
-   before any incumbent); off by default.
+
+Variants measured not to pay (per-assembly score correction, sequential tests, scoring the whole
+graph eagerly) live in ``research/variants/`` with their results (docs/RESULTS.md,
+research/README.md).
 
 With a perfect model (predictions equal to the simulator's scores) the exact mode returns the
 optimum exactly; with zero-width bounds too (``ScoreBounds.zero_width()``), ``V`` is the optimum. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
@@ -112,16 +97,13 @@ import time
 from dataclasses import dataclass
 
 from rap.model.calibration import ScoreBounds, bonferroni, load
-from rap.plan.search.scores import SearchScores, incumbent, max_value, report
-from rap.plan.dp import SLACK, dp_choice_bounded
+from rap.plan.dp import SLACK, dp_choice_bounded, max_value
+from rap.plan.search.scores import SearchScores, incumbent, report
 from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
 from rap.plan.planners.base import Planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStep
-from rap.plan.search.score_correction import ScoreCorrection
 from rap.plan.scoring.scorer import Scorer
-from rap.plan.search.screening import screen, thresholds
-from rap.sim.sequential import SequentialTest
 
 __all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE",
            "BOUND_ROUND"]
@@ -155,27 +137,20 @@ class SearchPlanner(Planner):
     name = "search"
 
     def __init__(self, beam_width: int = DEFAULT_BEAM, max_operations: int = DEFAULT_MAX_OPERATIONS,
-                 simulations: int = 0, trust: float | None = None, lazy: bool = True,
+                 simulations: int = 0, trust: float | None = None,
                  optimism: float = 0.0, upper: float = 0.0,
                  confidence: float = DEFAULT_CONFIDENCE, gap: float | None = None,
-                 bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND,
-                 tighten: bool = True, adapt: float | None = None,
-                 sequential: float | None = None):
+                 bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND):
         self.optimism = float(optimism)
         self.beam_width = int(beam_width)
         self.max_operations = int(max_operations)
         self.simulations = int(simulations)
         self.trust = None if trust is None else float(trust)
-        self.lazy = bool(lazy)  # False: score the whole graph in one batch first (same plan)
         self.upper = float(upper)
         self.confidence = float(confidence)
         self.gap = float(gap) if gap else None  # 0: off, as None
         self.bounds = bounds
         self.bound_round = int(bound_round)
-        self.tighten = bool(tighten)  # False: no second phase (module doc, 5), as before it
-        self.adapt = None if adapt is None else float(adapt)  # the correction's prior; None: off
-        # the error rate of sequential tests (module doc, 7; None or 0: off)
-        self.sequential = SequentialTest(float(sequential)) if sequential else None
 
     def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
         """``Planner.solve``, then the plan's bound (module doc, 6)."""
@@ -211,12 +186,10 @@ class SearchPlanner(Planner):
         return todo[:max(0, math.ceil(self.simulations - spent))]
 
     def _simulate(self, scores: SearchScores, todo: list, chosen, best) -> float:
-        """Simulate ``todo`` (steps of the choice ``chosen``); returns the simulations spent. With
-        ``sequential``, by sequential tests against the incumbent ``best()`` (module doc, 7)."""
-        if self.sequential is None:
-            scores.simulate(todo)
-            return len(todo)
-        return screen(scores, todo, thresholds(scores, chosen, todo, best()), self.sequential)
+        """Simulate ``todo`` (steps of the choice ``chosen``; ``best()``: the incumbent's
+        robustness, for a variant that simulates against it); returns the simulations spent."""
+        scores.simulate(todo)
+        return len(todo)
 
     def _free_bound(self, scores: SearchScores) -> bool:
         """Whether the choosing scores are the upper bounds themselves (the DP's value is V)."""
@@ -246,7 +219,7 @@ class SearchPlanner(Planner):
         """When the choice is settled short of ``gap`` with budget left: phase 2 (module doc, 5)
         starts, choosing by the bounds themselves; returns what it must never fall below (the
         settled choice and its robustness by known scores), or None when it does not start."""
-        if not (self.tighten and self.gap is not None and spent < self.simulations):
+        if not (self.gap is not None and spent < self.simulations):
             return None
         scores.by_bounds()
         stats.update(phase1_simulations=spent, gap=self.gap)
@@ -270,13 +243,11 @@ class SearchPlanner(Planner):
             return []
         if self.bounds is None:
             self.bounds = load()
-        trials = scorer.stats.sim_trials
         raise_ = self.simulations > 0  # raised scores choose what to simulate: none to choose
         scores = SearchScores(problem, scorer, self.bounds,
                               bonferroni(self.confidence, len(whole) - 1),
                               self.optimism if raise_ else 0.0, self.upper if raise_ else 0.0,
-                              self.trust, None if self.adapt is None or not raise_
-                              else ScoreCorrection(self.adapt))
+                              self.trust)
         try:
             graph = reachable(problem, self.max_operations)
         except TooLarge:
@@ -296,9 +267,6 @@ class SearchPlanner(Planner):
                                      score=scores.simulated.get(k),
                                      confidence=scores.predicted.get(k))
         stats["search_simulations"] = len(scores.simulated)
-        if self.sequential is not None:
-            stats.update(search_partial=len(scores.partial),
-                         search_trials=scorer.stats.sim_trials - trials)
         stats["predicted_operations"] = len(scores.predicted)
         return assembly_order(steps, whole)
 
@@ -328,8 +296,6 @@ class SearchPlanner(Planner):
     # -- exact ------------------------------------------------------------------------------------
     def _exact(self, graph, scores: SearchScores, whole, stats) -> dict:
         stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
-        if not self.lazy:
-            scores.predict([op for c in graph.values() for op in c])
 
         def scores_of(s):  # predicted on the first visit, one CNN batch per subassembly
             if not scores.cached("of", s):

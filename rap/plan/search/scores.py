@@ -19,19 +19,11 @@ at a per-operation level (``rap.model.calibration``). Three views:
   optimism alone, as before; ``upper = 1, optimism = 0``: the bound itself). ``lower()`` (choose
   by ``known``) and ``by_bounds()`` (by ``high``) change it for the rest of a search.
 
-An operation *partly simulated* by a sequential test (``rap.plan.search.screening``: chunks of trials,
-stopped once its score is shown below what could still matter) is in ``partial``, not in
-``simulated``: ``known`` is its chunks' rate, ``of`` their upper confidence bound while the
-search chooses by raised scores (their rate once lowered), ``high`` stays the model's bound (so
-the reported ``V`` keeps its confidence), and no incumbent counts it.
-
-``max_value(graph, scores_of, whole)``: ``max over sequences of the product of scores`` by branch
-and bound (no tie-breaking, so ties are pruned); ``incumbent(graph, scores, whole)``: the best
+``incumbent(graph, scores, whole)``: the best
 sequence all of whose operations are simulated (its robustness and tree; 0 and None when there is
 none). ``report(...)``: the ``bound`` block of a plan (``rap.plan.report.result.PlanResult``).
 
-Cost: ``max_value`` at most one visit of each reachable subassembly (its candidates' scores asked
-once); the upper bounds of a batch of predictions are one vectorised call. No ray, no torch.
+Cost: ``incumbent`` at most one visit of each reachable subassembly; the upper bounds of a batch of predictions are one vectorised call. No ray, no torch.
 """
 
 from __future__ import annotations
@@ -44,10 +36,9 @@ from rap.model.calibration import ScoreBounds, bonferroni
 from rap.plan.dp import dp_choice_bounded
 from rap.plan.graph import Graph
 from rap.plan.problem import PlanningProblem
-from rap.plan.search.score_correction import ScoreCorrection
 from rap.plan.scoring.scorer import Scorer
 
-__all__ = ["SearchScores", "max_value", "incumbent", "report", "bonferroni"]
+__all__ = ["SearchScores", "incumbent", "report"]
 
 
 @dataclass
@@ -62,12 +53,9 @@ class SearchScores:
     optimism: float = 0.0
     upper: float = 0.0
     trust: float | None = None
-    correction: ScoreCorrection | None = None
     predicted: dict = field(default_factory=dict)
     bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
     simulated: dict = field(default_factory=dict)
-    # key -> (successes, trials, upper bound) of an operation partly simulated (module doc)
-    partial: dict = field(default_factory=dict)
     # id(op) -> (op, key): a key is a SHA-256 of the operation's content, the search's main
     # bookkeeping cost when recomputed; the op is held so that its id is never reused
     _keys: dict = field(default_factory=dict, repr=False)
@@ -168,13 +156,9 @@ class SearchScores:
         k = self.key(op)
         if k in self.simulated:
             return self.simulated[k]
-        if k in self.partial:
-            s, n, up = self.partial[k]
-            return up if self.raised else s / n
-        p = self.predicted[k]
+        p = out = self.predicted[k]
         if self.trust is not None and p >= self.trust:
-            return self._corrected(p)
-        p = out = self._corrected(p)
+            return p
         if self.optimism:
             out = p + self.optimism * (1.0 - p)
         if self.upper:
@@ -182,18 +166,9 @@ class SearchScores:
         return out
 
     def known(self, op) -> float:
-        """Simulated, else partly simulated (the chunks' rate), else predicted (corrected, with
-        a correction)."""
+        """Simulated, else predicted."""
         k = self.key(op)
-        if k in self.simulated:
-            return self.simulated[k]
-        if k in self.partial:
-            s, n, _ = self.partial[k]
-            return s / n
-        return self._corrected(self.predicted[k])
-
-    def _corrected(self, p: float) -> float:
-        return p if self.correction is None else self.correction(p)
+        return self.simulated[k] if k in self.simulated else self.predicted[k]
 
     def high(self, op) -> float:
         """Simulated, else the upper bound (1 for an operation not predicted)."""
@@ -206,82 +181,18 @@ class SearchScores:
     def simulate(self, ops) -> None:
         """Simulate the operations not simulated yet (one batch)."""
         ops = [op for op in ops if self.key(op) not in self.simulated]
-        scores = [float(sc) for sc in self.scorer.scores(self.problem, ops)]
-        refit = False
-        if self.correction is not None:
-            for op, sc in zip(ops, scores):
-                if self.key(op) in self.predicted:
-                    self.correction.add(self.predicted[self.key(op)], sc)
-                    refit = True
-        self.add_simulated(ops, scores)
-        if refit:
-            self._forget("of")  # the unsimulated operations' ``of`` moved
+        self.add_simulated(ops, [float(sc) for sc in self.scorer.scores(self.problem, ops)])
 
     def add_simulated(self, ops, scores) -> None:
         """Scores simulated elsewhere (a plan's evaluation)."""
         ops = list(ops)
         for op, sc in zip(ops, scores):
             self.simulated[self.key(op)] = float(sc)
-            self.partial.pop(self.key(op), None)
         self._changed(ops)
-
-    def add_partial(self, op, successes: int, trials: int, upper: float) -> None:
-        """``op``'s sequential test so far: ``successes`` of ``trials``, ``upper`` the upper
-        bound of its score (module doc)."""
-        self.partial[self.key(op)] = (int(successes), int(trials), float(upper))
-        self._changed([op], ("of",))
 
     def simulated_or_0(self, op) -> float:
         """Simulated, else 0 (what the incumbent is chosen by)."""
         return self.simulated.get(self.key(op), 0.0)
-
-
-def max_value(graph: Graph, scores_of, whole: frozenset,
-              memo: tuple[dict, dict] | None = None) -> float:
-    """``max over sequences of the product of scores`` below ``whole`` (1 for a single part, 0
-    when none exists); ``scores_of(S)``: the scores in [0, 1] of ``graph[S]`` in order, asked at
-    most once per subassembly. Branch and bound as ``rap.plan.dp``, but a candidate that
-    can at most tie is pruned (only the value is wanted). Recursion depth at most the parts.
-    ``memo``: ``(exact, bounded)`` kept between calls, as ``dp_choice_bounded``'s."""
-    exact: dict[frozenset, float]
-    bounded: dict[frozenset, float]
-    exact, bounded = memo if memo is not None else ({}, {})
-    asked: dict[frozenset, list] = {}
-
-    def value(s: frozenset, tau: float) -> tuple[float, bool]:
-        # best(s) exactly when it exceeds tau; else (a number <= tau that is >= best(s), False)
-        if len(s) < 2:
-            return 1.0, True
-        if s in exact:
-            return exact[s], True
-        if s in bounded and bounded[s] <= tau:
-            return bounded[s], False
-        cands = graph[s]
-        if s not in asked:
-            asked[s] = list(scores_of(s)) if cands else []
-        scores = asked[s]
-        best = 0.0
-        for i in sorted(range(len(cands)), key=lambda j: -scores[j]):
-            r = scores[i]
-            cut = max(best, tau)
-            if r <= cut or r <= 0.0:
-                break  # sorted: nothing later can beat the cut
-            vm, ok = value(cands[i].moving, cut / r)
-            if not ok or r * vm <= cut:
-                continue
-            vf, ok = value(cands[i].fixed, cut / (r * vm))
-            if ok and r * vm * vf > best:
-                best = r * vm * vf
-        if best > tau:
-            exact[s] = best
-            return best, True
-        bounded[s] = max(tau, 0.0)
-        return bounded[s], False
-
-    if len(whole) < 2:
-        return 1.0
-    v, ok = value(whole, -1.0)
-    return v if ok else 0.0
 
 
 def incumbent(graph: Graph, scores: SearchScores, whole: frozenset) -> tuple[float, dict | None]:

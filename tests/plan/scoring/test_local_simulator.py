@@ -84,24 +84,3 @@ def test_an_injected_simulator_is_never_forked():
     assert not sim.prestarted and sim.workers == []
     assert [s.score for s in sim.simulate_many(problem, ops)] == [1.0] * len(ops)
     assert calls == ops
-
-
-def test_chunks_are_their_own_seeded_runs_in_every_configuration():
-    import numpy as np
-
-    from rap.seeds import chunk_seed
-    from rap.sim.simulator import simulate
-
-    problem, ops = _problem()
-    chunks = [(op, i, n) for op in ops[:2] for i, n in enumerate((4, 8))]
-    here = LocalSimulator().simulate_chunks(problem, chunks)
-    sim = LocalSimulator(processes=2, min_batch=2)
-    try:
-        pooled = sim.simulate_chunks(problem, chunks)
-    finally:
-        sim.close()
-    assert pooled == here and [c.trials for c in here] == [4, 8, 4, 8]
-    op, i, n = chunks[1]  # the simulator itself, from the chunk's seed and trials
-    direct = simulate(problem.assembly, op, problem.params.with_(trials=n),
-                      np.random.default_rng(chunk_seed(problem.seed(op), i)))
-    assert (here[1].successes, here[1].trials) == (direct.successes, direct.trials)

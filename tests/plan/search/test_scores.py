@@ -12,14 +12,14 @@ import pytest
 
 from rap.commands._plan_output import bound_lines
 from rap.model.calibration import ScoreBounds, fit
-from rap.plan.search.scores import max_value
+from rap.plan.dp import max_value
 from rap.plan.scoring.cache import ScoreCache
-from rap.plan.graph import dp_choice, reachable
+from rap.plan.dp import dp_choice
+from rap.plan.graph import reachable
 from rap.plan.methods import SearchOptions, from_table_name
 from rap.plan.planners.base import OptimalPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStatus
-from rap.plan.search.score_correction import ScoreCorrection
 from rap.plan.scoring.scorer import Scorer
 from rap.plan.search.planner import SearchPlanner
 from rap.plan.report.validate import check_plan
@@ -169,18 +169,15 @@ def test_max_value_is_the_dynamic_programme():
         assert max_value(graph, ones.__getitem__, problem.whole) == 1.0
 
 
-@pytest.mark.parametrize("adapt", [None, 2.0])
-def test_kept_tables_give_what_a_fresh_dynamic_programme_gives(adapt):
-    # the search keeps its DP tables between rounds and drops those above changed scores (with a
-    # correction, every simulation moves every unsimulated operation's score)
+def test_kept_tables_give_what_a_fresh_dynamic_programme_gives():
+    # the search keeps its DP tables between rounds and drops those above changed scores
     from rap.plan.search.scores import SearchScores, incumbent
     from rap.plan.dp import dp_choice_bounded
     rng = np.random.default_rng(8)
     for name in ("triangles", "grid"):
         problem = PlanningProblem(six(name), PARAMS)
         graph = reachable(problem)
-        sc = SearchScores(problem, scorer(low(3)), covering(), 0.99, upper=0.5,
-                          correction=None if adapt is None else ScoreCorrection(adapt))
+        sc = SearchScores(problem, scorer(low(3)), covering(), 0.99, upper=0.5)
         ops = [op for c in graph.values() for op in c]
         for step in range(12):
             if step == 9:
@@ -257,9 +254,10 @@ def test_bounds_simulate_a_few_operations_a_round_most_raised_first():
 
 
 def p1_and_p2(problem, model, **options):
-    """The same search without and with phase 2 (module doc of ``rap.plan.search.planner``, 5)."""
-    return [SearchPlanner(bounds=covering(), tighten=t, **options).solve(problem, scorer(model))
-            for t in (False, True)]
+    """The same search stopped when its choice settles (no ``gap``: phase 1 alone) and with
+    phase 2 (module doc of ``rap.plan.search.planner``, 5)."""
+    return [SearchPlanner(bounds=covering(), **{**options, "gap": g}).solve(problem, scorer(model))
+            for g in (None, options.get("gap"))]
 
 
 def test_a_settled_choice_short_of_the_gap_goes_on_until_within_it_and_says_so():
@@ -334,60 +332,3 @@ def test_beam_phase_two_over_the_final_beam():
     assert p1.stats["stopped"] == "settled" and p1.bound["gap"] > 0.05
     assert p2.stats["phase2_simulations"] > 0 and p2.stats["stopped"] in ("gap", "bound")
     assert p2.robustness >= p1.robustness and b["gap"] <= 0.05 + 1e-12
-
-
-def high(seed: int, width: float = WIDTH):
-    """A model that over-predicts each operation by a fixed amount in [0, width]."""
-    def fn(op):
-        u = np.random.default_rng([seed, int(op.key("high")[:12], 16)]).uniform(0.0, width)
-        return min(1.0, hash_score(op) + u)
-    return fn
-
-
-def test_a_correction_moves_known_and_chosen_scores_but_not_the_bounds():
-    from rap.plan.search.scores import SearchScores
-    problem = PlanningProblem(six("triangles"), PARAMS)
-    ops = [op for c in reachable(problem).values() for op in c]
-    for model, lower in ((high(2), True), (low(2), False)):
-        plain = SearchScores(problem, scorer(model), covering(), 0.99, upper=0.5)
-        sc = SearchScores(problem, scorer(model), covering(), 0.99, upper=0.5,
-                          correction=ScoreCorrection(2.0))
-        for x in (plain, sc):
-            x.predict(ops)
-        assert [sc.known(op) for op in ops] == [plain.known(op) for op in ops]  # nothing yet
-        assert [sc.of(op) for op in ops] == [plain.of(op) for op in ops]
-        sc.simulate(ops[:6])
-        rest = [op for op in ops[6:] if 0.0 < sc.predicted[sc.key(op)] < 1.0]
-        assert rest and all((sc.known(op) < sc.predicted[sc.key(op)]) is lower for op in rest)
-        assert all((sc.of(op) < plain.of(op)) is lower for op in rest)
-        assert [sc.high(op) for op in ops[6:]] == [plain.high(op) for op in ops[6:]]
-        assert [sc.known(op) for op in ops[:6]] == [sc.simulated[sc.key(op)] for op in ops[:6]]
-
-
-@pytest.mark.parametrize("name", SIX)
-def test_adapting_keeps_the_optimum_of_a_perfect_scorer_and_branch_and_bound_exact(name):
-    problem = PlanningProblem(six(name), PARAMS)
-    best = optimum(problem)
-    for adapt in (0.0, 2.0):
-        found = SearchPlanner(bounds=ScoreBounds.zero_width(), upper=0.35, simulations=1000,
-                              gap=0.05, adapt=adapt).solve(problem, scorer())
-        checked(problem, found)
-        assert tree(found) == tree(best)
-        for model in (low(4), high(4)):  # bounds that hold for low: V, and the stop, stay valid
-            exact = SearchPlanner(bounds=ScoreBounds.trivial(), upper=1.0, simulations=10_000,
-                                  adapt=adapt).solve(problem, scorer(model))
-            checked(problem, exact)
-            assert exact.robustness == pytest.approx(best.robustness, rel=1e-12)
-
-
-def test_adapt_changes_nothing_without_simulations_or_when_off():
-    problem = PlanningProblem(six("grid"), PARAMS)
-    plain = SearchPlanner(bounds=covering()).solve(problem, scorer(high(1)))
-    got = SearchPlanner(bounds=covering(), adapt=2.0).solve(problem, scorer(high(1)))
-    assert tree(got) == tree(plain) and got.stats["search_simulations"] == 0
-    assert got.stats["predicted_operations"] == plain.stats["predicted_operations"]
-    opts = dict(bounds=covering(), upper=0.35, simulations=30, gap=0.05)
-    off = SearchPlanner(**opts, adapt=None).solve(problem, scorer(high(1)))
-    default = SearchPlanner(**opts).solve(problem, scorer(high(1)))
-    assert tree(off) == tree(default)
-    assert off.stats["search_simulations"] == default.stats["search_simulations"]

@@ -1,4 +1,4 @@
-"""rap.sim.sequential: Clopper-Pearson bounds, and the sequential test's error rate on synthetic
+"""research.variants.sequential: Clopper-Pearson bounds, and the sequential test's error rate on synthetic
 Bernoulli streams (seeded), whatever the thresholds at each look."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rap.sim.sequential import (ABOVE, BELOW, UNDECIDED, SequentialTest, lower_bound,
+from research.variants.sequential import (ABOVE, BELOW, UNDECIDED, SequentialTest, lower_bound,
                                 upper_bound)
 
 STREAMS = 2000
@@ -26,7 +26,7 @@ def test_clopper_pearson_bounds_in_closed_form_at_the_ends():
 
 def _run(test: SequentialTest, p: float, taus, rng) -> str:
     """One stream: chunks of Bernoulli(p) trials, a look after each against ``taus[look]``,
-    stopped at the first decision (what ``rap.plan.search.screening`` does)."""
+    stopped at the first decision (what ``research.variants.screening`` does)."""
     s = n = 0
     for chunk, tau in zip(test.chunks, taus):
         s += int(rng.binomial(chunk, p))

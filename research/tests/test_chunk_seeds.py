@@ -1,10 +1,11 @@
-"""rap.seeds: chunk seeds of sequential tests are deterministic, distinct, never the label's."""
+"""research.variants.chunks: chunk seeds of sequential tests are deterministic, distinct, never the label's."""
 
 from __future__ import annotations
 
 import pytest
 
-from rap.seeds import chunk_seed, derive_seed
+from rap.seeds import derive_seed
+from research.variants.chunks import chunk_seed
 
 
 def test_chunk_seeds_are_deterministic_distinct_and_not_the_operations_own():

@@ -6,7 +6,7 @@ choice, with every other step at the score it is chosen by (``SearchScores.of``)
 if the operation's score is at least ``tau = I / (product of the choice's other steps' scores)``
 (``thresholds``); the choice is the best product among all sequences holding the operation, so no
 sequence holding it can do better at those scores. ``screen`` runs each operation's sequential
-test (``rap.sim.sequential.SequentialTest``: chunks of trials, e.g. 20, 20, 20) against its
+test (``research.variants.sequential.SequentialTest``: chunks of trials, e.g. 20, 20, 20) against its
 ``tau``:
 
 * shown ``below`` ``tau`` at the test's error rate: the operation is left *partly simulated*
@@ -35,7 +35,7 @@ from typing import Sequence
 
 from rap.operation import Operation
 from rap.plan.search.scores import SearchScores
-from rap.sim.sequential import ABOVE, BELOW, SequentialTest
+from research.variants.sequential import ABOVE, BELOW, SequentialTest
 
 __all__ = ["thresholds", "screen"]
 

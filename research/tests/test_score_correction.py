@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from rap.plan.search.score_correction import EDGES, ScoreCorrection
+from research.variants.score_correction import EDGES, ScoreCorrection
 
 PS = [0.0, 0.03, 0.5, 0.81, 0.9, 0.949, 0.97, 0.995, 1.0]
 
