@@ -16,7 +16,7 @@ RAP = Path(__file__).resolve().parents[1] / "rap"
 
 # lower number = lower layer; a module may import modules of its own layer or below
 LAYERS = {
-    "rap.errors": 0, "rap.config": 0, "rap.seeds": 0,
+    "rap.errors": 0, "rap.config": 0, "rap.seeds": 0, "rap.stats": 0,
     "rap.assembly": 1, "rap.assembly_reader": 1, "rap.operation": 1,
     "rap.geometry": 2, "rap.io": 3, "rap.enumerate": 3,
     "rap.sim": 4, "rap.render": 4, "rap.dataset": 4,

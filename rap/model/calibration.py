@@ -45,20 +45,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ScoreBounds", "fit", "load", "save", "bonferroni", "min_count", "DEFAULT_PATH",
+from rap.stats import bonferroni, check_level
+
+__all__ = ["ScoreBounds", "fit", "load", "save", "min_count", "DEFAULT_PATH",
            "DEFAULT_BINS", "FORMAT"]
 
 DEFAULT_PATH = Path(__file__).resolve().parents[1] / "data" / "score_bounds.json"
 DEFAULT_BINS = 6
 FORMAT = "rap-farm score bounds"
 _ROUND = 1e6  # residuals are stored rounded up to 1e-6
-
-
-def _check_level(level: float) -> float:
-    level = float(level)
-    if not 0.0 < level <= 1.0:
-        raise ValueError(f"level {level!r}: choose a number in (0, 1]")
-    return level
 
 
 def _rank(n: int, level: float) -> int:
@@ -70,19 +65,13 @@ def _rank(n: int, level: float) -> int:
 def min_count(level: float) -> int:
     """The fewest residuals a bin needs for a bound below 1 at ``level`` in (0, 1): the least
     ``n`` with ``ceil((n + 1) level) <= n``."""
-    level = _check_level(level)
+    level = check_level(level)
     if level == 1.0:
         raise ValueError("level 1: no number of residuals bounds below 1")
     n = max(1, math.floor(level / (1.0 - level)) - 1)
     while _rank(n, level) > n:
         n += 1
     return n
-
-
-def bonferroni(confidence: float, steps: int) -> float:
-    """The per-operation level at which ``steps`` bounds hold together with probability at least
-    ``confidence`` (the union bound): ``1 - (1 - confidence) / steps`` (``steps`` < 1 counts 1)."""
-    return 1.0 - (1.0 - _check_level(confidence)) / max(1, int(steps))
 
 
 @dataclass(frozen=True)
@@ -137,7 +126,7 @@ class ScoreBounds:
     def margins(self, level: float) -> np.ndarray:
         """Per bin, the conformal quantile ``q`` added to ``p`` at ``level`` (``inf`` where the
         bin has fewer than ``min_count(level)`` residuals; 0 for a perfect scorer)."""
-        level = _check_level(level)
+        level = check_level(level)
         out = np.full(len(self._arrays), np.inf)
         for i, a in enumerate(self._arrays):
             k = _rank(a.size, level)

@@ -30,9 +30,10 @@ bisection steps, memoised per (successes, trials, level).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import lru_cache
+
+from rap.stats import clopper_pearson
 
 __all__ = ["SequentialTest", "DEFAULT_CHUNKS", "BELOW", "ABOVE", "UNDECIDED", "upper_bound",
            "lower_bound"]
@@ -43,35 +44,19 @@ __all__ = ["SequentialTest", "DEFAULT_CHUNKS", "BELOW", "ABOVE", "UNDECIDED", "u
 #: one of them cost the default search more trials than it saved (docs/RESULTS.md)
 DEFAULT_CHUNKS = (10,)
 BELOW, ABOVE, UNDECIDED = "below", "above", "undecided"
-_BISECTIONS = 60
-
-
-def _cdf(k: int, n: int, p: float) -> float:
-    """P(X <= k) for X ~ Binomial(n, p)."""
-    if p <= 0.0:
-        return 1.0
-    if p >= 1.0:
-        return 1.0 if k >= n else 0.0
-    q = 1.0 - p
-    return min(1.0, sum(math.comb(n, i) * p ** i * q ** (n - i) for i in range(k + 1)))
 
 
 @lru_cache(maxsize=4096)
 def upper_bound(successes: int, trials: int, alpha: float) -> float:
     """Clopper-Pearson upper bound: the largest ``p`` with ``P(X <= successes) >= alpha``
-    (``P(upper_bound(X) < p) <= alpha`` for every ``p``); 1 when every trial succeeded."""
+    (``P(upper_bound(X) < p) <= alpha`` for every ``p``); 1 when every trial succeeded. The
+    one-sided bound at ``alpha`` is the two-sided interval's end at level ``1 - 2 alpha``
+    (``rap.stats.clopper_pearson``)."""
     if not 0 <= successes <= trials or trials < 1:
         raise ValueError(f"{successes} successes of {trials} trials")
     if successes == trials:
         return 1.0
-    lo, hi = successes / trials, 1.0  # the tail at the estimate is at least ~1/2 >= alpha
-    for _ in range(_BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        if _cdf(successes, trials, mid) >= alpha:
-            lo = mid
-        else:
-            hi = mid
-    return hi  # the bisection's outer end: never below the exact bound
+    return clopper_pearson(successes, trials, 1.0 - 2.0 * alpha)[1]
 
 
 def lower_bound(successes: int, trials: int, alpha: float) -> float:

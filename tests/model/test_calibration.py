@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from rap.model.calibration import (FORMAT, ScoreBounds, bonferroni, fit, load, min_count, save)
+from rap.model.calibration import FORMAT, ScoreBounds, fit, load, min_count, save
+from rap.stats import bonferroni
 
 
 def draw(rng, n):

@@ -20,13 +20,13 @@ n - k + 1 terms; 6 for 100 trials and 0.95), computed in log space.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import torch
 import torch.nn.functional as F
 
-__all__ = ["HEADS", "out_features", "high_count", "loss", "prob_high", "expected_score",
+from rap.stats import high_count, log_comb
+
+__all__ = ["HEADS", "out_features", "loss", "prob_high", "expected_score",
            "binomial_tail", "prob_high_np", "expected_score_np", "fit_temperature"]
 
 HEADS = ("class", "binomial")
@@ -38,24 +38,16 @@ def out_features(head: str) -> int:
     return 2 if head == "class" else 1
 
 
-def high_count(threshold: float, trials: int) -> int:
-    """The least number of successes out of ``trials`` whose score is >= threshold."""
-    return max(0, math.ceil(threshold * trials - 1e-9))
-
-
-def _log_comb(n: int, j: int) -> float:
-    return math.lgamma(n + 1) - math.lgamma(j + 1) - math.lgamma(n - j + 1)
-
-
 def binomial_tail(p: torch.Tensor, n: int, k: int) -> torch.Tensor:
-    """P(Bin(n, p) >= k), elementwise, differentiable; exact sum in log space."""
+    """P(Bin(n, p) >= k), elementwise, differentiable; exact sum in log space (the torch twin of
+    ``rap.stats.binomial_tail``)."""
     if k <= 0:
         return torch.ones_like(p)
     if k > n:
         return torch.zeros_like(p)
     p = p.clamp(1e-12, 1 - 1e-12)
     lp, lq = torch.log(p), torch.log1p(-p)
-    terms = torch.stack([_log_comb(n, j) + j * lp + (n - j) * lq for j in range(k, n + 1)])
+    terms = torch.stack([log_comb(n, j) + j * lp + (n - j) * lq for j in range(k, n + 1)])
     return torch.logsumexp(terms, dim=0).exp().clamp(0.0, 1.0)
 
 

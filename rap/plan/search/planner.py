@@ -96,13 +96,14 @@ import threading
 import time
 from dataclasses import dataclass
 
-from rap.model.calibration import ScoreBounds, bonferroni, load
+from rap.model.calibration import ScoreBounds, load
 from rap.plan.dp import SLACK, dp_choice_bounded, max_value
 from rap.plan.search.scores import SearchScores, incumbent, report
 from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
 from rap.plan.planners.base import Planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStep
+from rap.stats import bonferroni
 from rap.plan.scoring.scorer import Scorer
 
 __all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE",

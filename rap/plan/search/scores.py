@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rap.model.calibration import ScoreBounds, bonferroni
+from rap.model.calibration import ScoreBounds
 from rap.plan.dp import dp_choice_bounded
 from rap.plan.graph import Graph
 from rap.plan.problem import PlanningProblem

@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from rap.model.network import heads
+from rap.stats import high_count
 
 
 def test_binomial_tail_is_the_exact_sum():
@@ -15,7 +16,7 @@ def test_binomial_tail_is_the_exact_sum():
     ref = [sum(math.comb(100, j) * q ** j * (1 - q) ** (100 - j) for j in range(95, 101))
            for q in p.tolist()]
     np.testing.assert_allclose(got, ref, atol=1e-9)
-    assert heads.high_count(0.95, 100) == 95 and heads.high_count(0.95, 20) == 19
+    assert high_count(0.95, 100) == 95 and high_count(0.95, 20) == 19
 
 
 def test_binomial_loss_is_the_negative_log_likelihood_per_trial():

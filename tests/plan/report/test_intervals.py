@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from rap.plan.report.intervals import (LEVEL, clopper_pearson, robustness_interval, step_interval,
-                                      successes_of)
+from rap.plan.report.intervals import LEVEL, robustness_interval, step_interval
+from rap.stats import clopper_pearson, successes_of
 
 
 def tail_at_least(k: int, n: int, p: float) -> float:

@@ -18,7 +18,7 @@ from rap.plan.scoring.local_simulator import LocalSimulator
 from rap.plan.planners.base import SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStatus, PlanStep
-from rap.plan.report.intervals import clopper_pearson, successes_of
+from rap.stats import clopper_pearson, successes_of
 from rap.plan.scoring.scorer import Scorer
 from rap.sim.params import SimParams
 
