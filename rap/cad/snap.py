@@ -73,6 +73,3 @@ class Grid:
 
     def fraction(self, k: int) -> Fraction:
         return Fraction(self.step) * k
-
-    def to_float(self, k: int) -> float:
-        return float(self.value(k))

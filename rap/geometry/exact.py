@@ -41,8 +41,6 @@ __all__ = [
     "unit",
     "exact_direction",
     "open_arc_middle",
-    "neg",
-    "sort_directions",
 ]
 
 IVec = tuple[int, int]
@@ -117,10 +115,6 @@ def primitive(d: Sequence[int]) -> IVec:
     if g == 0:
         raise ValueError("the zero vector has no direction")
     return (x // g, y // g)
-
-
-def neg(d: Sequence[int]) -> IVec:
-    return (-d[0], -d[1])
 
 
 def same_direction(u: Sequence, v: Sequence) -> bool:
@@ -255,8 +249,3 @@ def open_arc_middle(s: Sequence[int], e: Sequence[int]) -> tuple[IVec, tuple[flo
         d = arc_interior_vector(s, e)
         u = unit(d)
     return d, u
-
-
-def sort_directions(dirs: Iterable[Sequence[int]]) -> list[IVec]:
-    """Distinct primitive directions sorted CCW from angle 0."""
-    return sorted({primitive(d) for d in dirs}, key=angle_key)

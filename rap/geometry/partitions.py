@@ -22,7 +22,8 @@ strictly inside the range (an exact interior vector replaces it if floats ever f
 * ``single_part_partitions``: the partitions that move one part: per part of S, the maximal runs
   of cells where nothing else of S blocks it (O(cells x |S|) bit operations): the operation
   space of a cell that inserts one part at a time (the online choice may offer none of them).
-* ``interlocked`` / ``is_interlocked``: no feasible partition in any cell.
+* ``interlocked``: no feasible partition in any cell (the planner names a minimal interlocked
+  subassembly with ``rap.plan.interlocked``).
 * ``cell_partition_counts``: the number of feasible moving sets per cell (capped; pictures).
 * ``range_partition``: the ``Partition`` of a moving set over a run of cells (exact bounds, exact
   middle direction).
@@ -45,8 +46,8 @@ from rap.operation import Operation
 
 __all__ = ["Partition", "range_partition", "online_partitions", "single_part_partitions",
            "all_partitions",
-           "partition_specs", "partition_from_spec", "spec_is_vertex", "interlocked",
-           "is_interlocked", "cell_partition_counts", "DEFAULT_MAX_COUNT"]
+           "partition_specs", "spec_is_vertex", "interlocked",
+           "cell_partition_counts", "DEFAULT_MAX_COUNT"]
 
 DEFAULT_MAX_COUNT = 2_000_000
 
@@ -253,8 +254,7 @@ def partition_specs(ndbg: NDBG, subset: Iterable[str], max_count: int = DEFAULT_
     """Every feasible partition of S as ``(moving mask, first cell, last cell, whole circle)``.
 
     The integer core of ``all_partitions`` (no floats, no objects): one tuple per (moving set,
-    maximal direction range), in no particular order. ``partition_from_spec`` turns a tuple into a
-    ``Partition``. Raises ``TooManyPartitions`` past ``max_count`` (moving set, cell run)
+    maximal direction range), in no particular order. Raises ``TooManyPartitions`` past ``max_count`` (moving set, cell run)
     incidences. Cost: O(|S|) per ideal of every distinct restricted DBG.
     """
     m, idx = subset_mask(ndbg, subset)
@@ -297,14 +297,6 @@ def partition_specs(ndbg: NDBG, subset: Iterable[str], max_count: int = DEFAULT_
     return specs
 
 
-def partition_from_spec(ndbg: NDBG, subset: Iterable[str], spec: tuple[int, int, int, bool]
-                        ) -> Partition:
-    """The ``Partition`` of a ``partition_specs`` tuple of S."""
-    m, _ = subset_mask(ndbg, subset)
-    mv, kf, kl, whole = spec
-    return range_partition(ndbg, mv, m, kf, kl, whole)
-
-
 def spec_is_vertex(ndbg: NDBG, spec: tuple[int, int, int, bool]) -> bool:
     """Does the spec's range hold a single direction (one vertex cell)?"""
     _, kf, kl, whole = spec
@@ -338,6 +330,3 @@ def interlocked(ndbg: NDBG, subset: Iterable[str]) -> bool:
     """True when S (two or more parts) has no feasible partition in any cell."""
     subset = list(subset)
     return len(subset) >= 2 and not online_partitions(ndbg, subset)
-
-
-is_interlocked = interlocked

@@ -40,11 +40,9 @@ from rap.enumerate import label_key, label_seed
 from rap.errors import ParameterError
 from rap.operation import Operation
 from rap.plan.cell.constraints import CellConstraints
-from rap.plan.report.result import shrink_interlocked
 from rap.seeds import DEFAULT_ROOT_SEED
 
-__all__ = ["SPACES", "check_space", "PlanningProblem", "PartitionFn", "StabilityFn",
-           "minimal_interlocked"]
+__all__ = ["SPACES", "check_space", "PlanningProblem", "PartitionFn", "StabilityFn"]
 
 SPACES = ("online", "all")
 
@@ -191,10 +189,3 @@ class PlanningProblem:
     def is_interlocked(self, subset: Iterable[str]) -> bool:
         subset = frozenset(subset)
         return len(subset) >= 2 and not self.candidates(subset)
-
-
-def minimal_interlocked(problem: PlanningProblem, subset: Iterable[str]) -> frozenset[str]:
-    """Shrink an interlocked ``subset`` to an inclusion-minimal interlocked one by dropping parts
-    one at a time while the rest stays interlocked (``rap.plan.report.result.shrink_interlocked``).
-    O(n^2) candidate queries."""
-    return shrink_interlocked(subset, problem.is_interlocked)

@@ -159,14 +159,6 @@ class PlanningService:
         return {"model": self.model_path, "pool": self.pool.size if self.pool else 0,
                 "cached_scores": len(self.cache)}
 
-    def model_info(self) -> dict | None:
-        """The loaded checkpoint's metadata (trained assemblies, image statistics, threshold)."""
-        if self.cnn is None:
-            return None
-        p = self.cnn.predictor
-        return {"assemblies": p.assemblies, "image_stats": p.image_stats, "threshold": p.threshold,
-                "data_fingerprint": p.data_fingerprint}
-
     def plan(self, request: PlanRequest) -> PlanResult:
         with self._count_lock:
             self._active += 1

@@ -25,7 +25,7 @@ from rap.model.network.checkpoint import Checkpoint, load_checkpoint
 from rap.model.network.cnn import RobustnessCNN
 from rap.model.data.rows import image_stats
 
-__all__ = ["TorchPredictor", "batch_outputs", "batch_prob_high", "resolve_device"]
+__all__ = ["TorchPredictor", "batch_outputs", "resolve_device"]
 
 
 def resolve_device(name: str | torch.device = "auto") -> torch.device:
@@ -59,13 +59,6 @@ def batch_outputs(model: RobustnessCNN, images: np.ndarray, device: torch.device
         return model(x, d).double().cpu().numpy()
     return torch.cat([model(x[i:i + CPU_CHUNK], None if d is None else d[i:i + CPU_CHUNK])
                       for i in range(0, len(x), CPU_CHUNK)]).double().numpy()
-
-
-def batch_prob_high(model: RobustnessCNN, images: np.ndarray, device: torch.device,
-                    threshold: float = 0.95, trials: int = 100, temperature: float = 1.0) -> np.ndarray:
-    """P(high) for uint8 images [N, 2, 64, 64] through the model's head (see ``rap.model.network.heads``)."""
-    return heads.prob_high_np(batch_outputs(model, images, device), model.config.head, threshold,
-                              trials, temperature)
 
 
 def mirrored(images: np.ndarray) -> np.ndarray:

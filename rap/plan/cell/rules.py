@@ -18,7 +18,7 @@ over its splits plus one stability check per distinct fixed side, plus the searc
 ``blocked_by(problem, subset)``: the subassembly and one line to blame when a planner found no
 way on at ``subset`` (followed down, through operations whose sides cannot be built, to one that
 no operation obeying the rules splits): a real interlock (no operation even without the constraints) is shrunk to a
-minimal interlocked set and named as today (``rap.plan.report.result.interlocked_message``); otherwise
+minimal interlocked set and named as today (``rap.plan.interlocked``); otherwise
 the constraint that removes the subassembly's last operations is found by lifting the rules one
 at a time (the rules whose lifting frees it are named together; all of them when none alone
 does). ``constraint_stats(problem)``: what a plan's ``stats`` says about the constraints.
@@ -34,7 +34,7 @@ from rap.geometry.cones import intersect, partition_arc, choose_direction
 from rap.geometry.exact import exact_direction, primitive
 from rap.operation import Operation
 from rap.plan.cell.constraints import SCORE_NOTE, CellConstraints
-from rap.plan.report.result import interlocked_message, shrink_interlocked
+from rap.plan.interlocked import interlocked_message, minimal_interlocked
 
 __all__ = ["constrained_candidates", "blocked_by", "constraint_stats", "reaim", "part_heights"]
 
@@ -213,11 +213,14 @@ def blocked_by(problem, subset) -> tuple[frozenset, str]:
     c = problem.constraints
     if c.active and not problem.candidates(subset):
         subset = _deepest_block(problem, subset, c)
-    interlocked = not problem.splits(subset, False)
-    if interlocked or not c.active or problem.candidates(subset):
-        culprit = subset if not interlocked else shrink_interlocked(
-            subset, lambda rest: not problem.splits(rest, False))
+    if not problem.splits(subset, False):  # verified: no one-step translation separates it
+        culprit = minimal_interlocked(subset, lambda rest: not problem.splits(rest, False))
         return culprit, interlocked_message(name, culprit)
+    if not c.active or problem.candidates(subset):  # never claim an interlock not verified
+        return subset, (f"no assembly sequence found below the subassembly "
+                        f"{{{','.join(sorted(subset))}}}, which is not interlocked (a one-step "
+                        f"translation separates it): the search gave up on {name} (try "
+                        f"--method sim)")
     rules = c.rules()
     freeing = [r for r in rules if _obeying(problem, subset, c.relaxed(r))]
     # lifting the base lifts gravity and layers, lifting gravity lifts layers: name the narrowest

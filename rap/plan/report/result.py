@@ -29,9 +29,10 @@ from enum import Enum
 from typing import Sequence
 
 from rap.operation import Operation
+from rap.plan.interlocked import interlocked_message
 
-__all__ = ["PlanStatus", "PlanStep", "PlanResult", "RobotMove", "SOURCES", "robustness_of",
-           "is_assembly_order", "interlocked_message", "shrink_interlocked"]
+__all__ = ["PlanStatus", "PlanStep", "PlanResult", "RobotMove", "SOURCES", 
+           "is_assembly_order"]
 
 SOURCES = ("cnn", "sim", "random")
 
@@ -130,35 +131,6 @@ class PlanStep:
                    score_interval=None if lo_hi is None else _pair(lo_hi),
                    reason=None if s.get("reason") is None else str(s["reason"]),
                    robot=None if robot is None else RobotMove.from_json(robot))
-
-
-def interlocked_message(assembly: str, parts) -> str:
-    """The one-line reason of an ``INFEASIBLE`` result whose minimal interlocked set is ``parts``."""
-    return (f"no one-step translation separates the subassembly {{{','.join(sorted(parts))}}}: "
-            f"it is interlocked, so {assembly} has no assembly sequence")
-
-
-def shrink_interlocked(subset, interlocked) -> frozenset:
-    """An inclusion-minimal subset of an interlocked ``subset`` (the set an ``INFEASIBLE`` result
-    names), found by dropping parts one at a time, in id order, while ``interlocked(parts)``
-    (a list of at least 2 ids) still holds. O(n^2) calls of ``interlocked``."""
-    cur = sorted(subset)
-    changed = True
-    while changed and len(cur) > 2:
-        changed = False
-        for pid in list(cur):
-            rest = [p for p in cur if p != pid]
-            if len(rest) >= 2 and interlocked(rest):
-                cur, changed = rest, True
-                break
-    return frozenset(cur)
-
-
-def robustness_of(steps: Sequence[PlanStep]) -> float | None:
-    """R = product of the steps' scores (None when a score is missing)."""
-    if any(s.score is None for s in steps):
-        return None
-    return float(math.prod(s.score for s in steps))
 
 
 def is_assembly_order(steps: Sequence[PlanStep], parts: Sequence[str]) -> str | None:

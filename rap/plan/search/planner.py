@@ -363,8 +363,10 @@ class SearchPlanner(Planner):
                     new_open = tuple(sorted(rest + kids, key=lambda x: (-len(x), sorted(x))))
                     nxt.append((logp + math.log(r), counter, new_open, chosen + ((s, op),)))
                     counter += 1
-            if not nxt:
-                raise Interlocked(whole)
+            if not nxt:  # every state reached a dead end: blame the smallest one seen
+                locked = [s for s, c in cands.items() if not c]
+                raise Interlocked(min(locked, key=lambda x: (len(x), sorted(x))) if locked
+                                  else whole)
             beam = heapq.nlargest(self.beam_width, nxt, key=lambda st: (st[0], -st[1]))
         stats.update(beam_rounds=rounds, beam_width=self.beam_width)
         run.beam = [[op for _, op in st[3]] for st in beam]

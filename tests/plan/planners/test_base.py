@@ -14,7 +14,8 @@ from rap.plan.methods import (METHODS, PAPER_RAP, RAP_FALLBACK_OPTIMISM,
                               RAP_HIGH_PROBABILITY, make_planner)
 from rap.plan.planners.base import OptimalPlanner, RapPlanner, SimPlanner
 from rap.plan.problem import PlanningProblem
-from rap.plan.report.result import interlocked_message, PlanStatus, is_assembly_order
+from rap.plan.interlocked import interlocked_message
+from rap.plan.report.result import PlanStatus, is_assembly_order
 from rap.plan.scoring.scorer import Budget, Scorer
 from rap.plan.report.validate import check_plan
 from rap.sim.params import SimParams
