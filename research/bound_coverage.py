@@ -61,15 +61,15 @@ _BOUND = re.compile(r"^b(\d+)-c(\d+)(?:-g(\d+))?(?:-t(\d+))?(?:-u(\d+))?(?:-o(\d
 
 def planner_of(setting: str, bounds):
     """The planner a setting name stands for (module doc)."""
-    from rap.plan.planners.base import SimPlanner
+    from rap.plan.planners.greedy import SimPlanner
     from rap.plan.search.planner import SearchPlanner
 
     if setting == "sim":
         return SimPlanner()
     if setting == "old":
-        return SearchPlanner(simulations=0, bounds=bounds)
+        return SearchPlanner(simulations=0, bounds=bounds, upper=0.0)
     if setting == "s200-o10":
-        return SearchPlanner(simulations=200, optimism=0.1, bounds=bounds)
+        return SearchPlanner(simulations=200, optimism=0.1, bounds=bounds, upper=0.0)
     m = _BOUND.match(setting)
     if m is None:
         raise ValueError(f"setting {setting!r}: old, s200-o10, sim or "

@@ -52,7 +52,7 @@ def main() -> None:
             for e, cnn in engines.items():
                 problem = PlanningProblem(asm, params, seed, "online")
                 t = time.perf_counter()
-                steps = SearchPlanner()._search(problem, Scorer(NoSimulator(), cnn, ScoreCache()), {})
+                steps = SearchPlanner(simulations=0, upper=0.0)._search(problem, Scorer(NoSimulator(), cnn, ScoreCache()), {})
                 best[e] = min(best[e], time.perf_counter() - t)
                 plans[e] = [problem.key(s.operation) for s in steps]
         same = "" if plans["numpy"] == plans["torch"] else "  (plans differ)"

@@ -47,6 +47,7 @@ def main() -> None:
     from rap.model.inference.operations import OperationPredictor
     from rap.plan.scoring.scorer import Scorer
     from rap.plan.search.planner import SearchPlanner
+    from research.variants.eager import EagerSearchPlanner
     from rap.sim.params import SimParams
 
     cnn = OperationPredictor.load(a.model, engine="auto")
@@ -66,7 +67,7 @@ def main() -> None:
                 problem = PlanningProblem(asm, SimParams(), 1)
                 st = {}
                 t = time.perf_counter()
-                steps = SearchPlanner(lazy=lazy)._search(problem, Scorer(NoSimulator(), cnn,
+                steps = (SearchPlanner if lazy else EagerSearchPlanner)(simulations=0, upper=0.0)._search(problem, Scorer(NoSimulator(), cnn,
                                                                          ScoreCache()), st)
                 times[lazy].append(time.perf_counter() - t)
                 plans[lazy] = [(s.moving, s.fixed, s.direction) for s in steps]

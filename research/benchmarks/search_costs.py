@@ -12,7 +12,7 @@ operations scored, the batches and the model time they would cost under the meas
 - ``lazy``: one batch per subassembly visited (what ``SearchPlanner`` does);
 - ``kids``: a subassembly's candidates with those of its candidates' children (bigger batches,
   more operations);
-- ``eager``: the whole graph in one batch (``SearchPlanner(lazy=False)``).
+- ``eager``: the whole graph in one batch (``research.variants.eager.EagerSearchPlanner``).
 
     python -m research.benchmarks.search_costs [--no-profile] [NAME ...]   # default: assemblies/unseen
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from rap.model.calibration import ScoreBounds
-from rap.plan.planners.base import SimPlanner
+from rap.plan.planners.greedy import SimPlanner
 from rap.plan.search.planner import SearchPlanner
 
 from research.bound_coverage import planner_of

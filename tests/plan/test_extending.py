@@ -29,14 +29,24 @@ from tests.plan.cases import FRAMED_HOLE, ROW3, memory, six, write
 from tests.plan.standins import HashSim
 
 
-# step 1: the planner, as in the doc
+# step 1: the options, as in the doc
+@dataclass(frozen=True)
+class FirstOptions(PlannerOptions):
+    """The toy planner's options."""
+
+    pick: int = option(int, 0, low=0, code="i", code_name="I",
+                       help="Method {method}: the candidate taken at every subassembly")
+
+    method: ClassVar[str] = "first"
+    needs_model: ClassVar[bool] = False
+
+
+# step 2: the planner, as in the doc
 class FirstPlanner(Planner):
     """Candidate number ``pick`` (or the last) of every subassembly; no scores asked."""
 
     name = "first"
-
-    def __init__(self, pick: int = 0):
-        self.pick = pick
+    options_class = FirstOptions
 
     def _search(self, problem, scorer, stats):
         choice, todo = {}, [problem.whole] if len(problem.whole) >= 2 else []
@@ -51,28 +61,26 @@ class FirstPlanner(Planner):
         return assembly_order(choice, problem.whole)
 
 
+FirstOptions.planner = FirstPlanner
+
+
 @pytest.fixture
 def first():
-    """Step 2, its options registered as in the doc; removed again after the test, so that the
+    """Step 3, the method registered as in the doc; removed again after the test, so that the
     other tests see the shipped methods only."""
-
-    @register
-    @dataclass(frozen=True)
-    class FirstOptions(PlannerOptions):
-        """The toy planner's options."""
-
-        pick: int = option(int, 0, low=0, code="i", code_name="I",
-                           help="Method {method}: the candidate taken at every subassembly")
-
-        method: ClassVar[str] = "first"
-        planner: ClassVar[type] = FirstPlanner
-        needs_model: ClassVar[bool] = False
-
+    register(FirstOptions)
     try:
         yield FirstOptions
     finally:
         unregister("first")
     assert "first" not in METHODS
+
+
+def test_a_planner_built_without_arguments_has_its_declared_defaults():
+    assert FirstPlanner().pick == 0 and FirstPlanner(pick=3).pick == 3
+    assert FirstPlanner(FirstOptions(pick=2)).pick == 2
+    with pytest.raises(ParameterError):
+        FirstPlanner(pick=-1)
 
 
 def test_the_toy_planner_through_make_planner_and_the_experiment_names(first):

@@ -24,7 +24,7 @@ def test_service_serves_two_concurrent_requests_on_the_pool(ray_local):
 
     from rap.farm.pool import SimPool
     from rap.service.planning import PlanRequest, start_service
-    from rap.plan.planners.base import SimPlanner
+    from rap.plan.planners.greedy import SimPlanner
     from rap.plan.problem import PlanningProblem
     from rap.plan.scoring.local_simulator import LocalSimulator
     from rap.plan.scoring.scorer import Scorer

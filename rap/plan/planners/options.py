@@ -145,12 +145,12 @@ class PlannerOptions:
         return cls(**{k: v for k, v in given.items() if v is not None and k in names})
 
     def build(self):
-        """The planner (a ``rap.plan.planners.base.Planner``): ``planner(**options)``; a method whose
-        planner is made otherwise overrides this."""
+        """The planner (a ``rap.plan.planners.base.Planner``) with these options:
+        ``planner(self)``; a method whose planner is made otherwise overrides this."""
         if self.planner is None:
             raise TypeError(f"{type(self).__name__} declares no planner class and does not "
                             f"override build()")
-        return self.planner(**{o.name: getattr(self, o.name) for o in self.declared()})
+        return self.planner(self)
 
     # -- experiment method names ----------------------------------------------------------------
     @classmethod

@@ -98,6 +98,7 @@ from dataclasses import dataclass
 
 from rap.model.calibration import ScoreBounds, load
 from rap.plan.dp import SLACK, dp_choice_bounded, max_value
+from rap.plan.search.options import SearchOptions
 from rap.plan.search.scores import SearchScores, incumbent, report
 from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
 from rap.plan.planners.base import Planner
@@ -106,17 +107,8 @@ from rap.plan.report.result import PlanResult, PlanStep
 from rap.stats import bonferroni
 from rap.plan.scoring.scorer import Scorer
 
-__all__ = ["SearchPlanner", "DEFAULT_BEAM", "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE",
-           "BOUND_ROUND"]
+__all__ = ["SearchPlanner"]
 
-DEFAULT_BEAM = 8
-DEFAULT_MAX_OPERATIONS = 20_000
-DEFAULT_CONFIDENCE = 0.95
-#: operations simulated per round while choosing by bounds (``upper`` > 0), the most raised
-#: first: on ten fresh validation assemblies (lookup tables, shipped model) one or two a round
-#: reached 0.976 of the optimum with ``upper`` 1 and 200 simulations, the whole optimistic
-#: sequence a round 0.951; two keep two simulation workers busy
-BOUND_ROUND = 2
 _CURRENT = threading.local()  # .run: the _Run of the search solving in this thread
 
 
@@ -131,27 +123,20 @@ class _Run:
 
 
 class SearchPlanner(Planner):
-    """See the module doc. ``rap.plan.methods.SearchOptions`` declares the options (ranges,
-    defaults) and checks them; they are not checked here. ``bounds``: the score bounds (None:
+    """See the module doc. ``SearchOptions`` declares the options, their ranges and the shipped
+    defaults: ``SearchPlanner()`` is the shipped search. ``bounds``: the score bounds (None:
     ``rap.model.calibration.load()``, the shipped calibration, read on first use)."""
 
     name = "search"
+    options_class = SearchOptions
 
-    def __init__(self, beam_width: int = DEFAULT_BEAM, max_operations: int = DEFAULT_MAX_OPERATIONS,
-                 simulations: int = 0, trust: float | None = None,
-                 optimism: float = 0.0, upper: float = 0.0,
-                 confidence: float = DEFAULT_CONFIDENCE, gap: float | None = None,
-                 bounds: ScoreBounds | None = None, bound_round: int = BOUND_ROUND):
-        self.optimism = float(optimism)
-        self.beam_width = int(beam_width)
-        self.max_operations = int(max_operations)
-        self.simulations = int(simulations)
-        self.trust = None if trust is None else float(trust)
-        self.upper = float(upper)
-        self.confidence = float(confidence)
-        self.gap = float(gap) if gap else None  # 0: off, as None
+    def __init__(self, options: SearchOptions | None = None, *, bounds: ScoreBounds | None = None,
+                 **changes):
+        if "gap" in changes and changes["gap"] is None:
+            changes["gap"] = 0.0  # None or 0: off
+        super().__init__(options, **changes)
+        self.gap = self.gap or None
         self.bounds = bounds
-        self.bound_round = int(bound_round)
 
     def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
         """``Planner.solve``, then the plan's bound (module doc, 6)."""
@@ -403,3 +388,6 @@ class SearchPlanner(Planner):
             spent += self._simulate(scores, todo, [op for _, op in top], lambda: max(
                 (math.prod(scores.known(op) for _, op in st[3]) for st in beam
                  if all(scores.is_simulated(op) for _, op in st[3])), default=0.0))
+
+
+SearchOptions.planner = SearchPlanner

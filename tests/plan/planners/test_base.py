@@ -12,7 +12,8 @@ from rap.plan.scoring.cache import ScoreCache
 from rap.plan.scoring.local_simulator import LocalSimulator
 from rap.plan.methods import (METHODS, PAPER_RAP, RAP_FALLBACK_OPTIMISM,
                               RAP_HIGH_PROBABILITY, make_planner)
-from rap.plan.planners.base import OptimalPlanner, RapPlanner, SimPlanner
+from rap.plan.planners.greedy import RapPlanner, SimPlanner
+from rap.plan.planners.optimal import OptimalPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.interlocked import interlocked_message
 from rap.plan.report.result import PlanStatus, is_assembly_order
@@ -60,7 +61,7 @@ def test_generated_tilings_give_valid_plans():
     assemblies = [gen.grid(3), gen.random_tiling(6, rng), gen.random_tiling(8, rng)]
     for asm in assemblies:
         problem = PlanningProblem(asm, PARAMS)
-        for planner in (SimPlanner(), OptimalPlanner(), RapPlanner()):
+        for planner in (SimPlanner(), OptimalPlanner(), RapPlanner(high_probability=0.5, fallback_optimism=1.0)):
             r = planner.solve(problem, fake_scorer(TableCnn(cnn_like_sim)))
             assert r.status is PlanStatus.FOUND
             assert check_plan(asm, r.steps) == [], (asm.name, planner.name)
@@ -68,7 +69,7 @@ def test_generated_tilings_give_valid_plans():
 
 def test_rap_without_high_predictions_falls_back_to_the_sim_baseline():
     problem = PlanningProblem(six("hexagon"), PARAMS)
-    rap = RapPlanner().solve(problem, fake_scorer(TableCnn(lambda op: 0.1)))
+    rap = RapPlanner(high_probability=0.5, fallback_optimism=1.0).solve(problem, fake_scorer(TableCnn(lambda op: 0.1)))
     sim = SimPlanner().solve(problem, fake_scorer())
     assert [s.to_json()["moving"] for s in rap.steps] == [s.to_json()["moving"] for s in sim.steps]
     assert rap.stats["fallbacks"] == rap.stats["decisions"] > 0
@@ -78,17 +79,17 @@ def test_rap_without_high_predictions_falls_back_to_the_sim_baseline():
 def test_rap_fallback_k_all_is_the_papers_rule_and_k_limits_the_simulations():
     problem = PlanningProblem(six("triangles"), PARAMS)
     low = lambda op: 0.4 * hash_score(op)  # noqa: E731: never high, but a ranking
-    paper = RapPlanner().solve(problem, fake_scorer(TableCnn(low)))
-    every = RapPlanner(fallback_k=10 ** 6).solve(problem, fake_scorer(TableCnn(low)))
+    paper = RapPlanner(high_probability=0.5, fallback_optimism=1.0).solve(problem, fake_scorer(TableCnn(low)))
+    every = RapPlanner(fallback_k=10 ** 6, **PAPER_RAP).solve(problem, fake_scorer(TableCnn(low)))
     assert [s.to_json() for s in every.steps] == [s.to_json() for s in paper.steps]
     assert every.stats["fallback_candidates"] == paper.stats["fallback_candidates"]
     for k in (1, 2, 3):
-        r = RapPlanner(fallback_k=k).solve(problem, fake_scorer(TableCnn(low)))
+        r = RapPlanner(fallback_k=k, high_probability=0.5, fallback_optimism=1.0).solve(problem, fake_scorer(TableCnn(low)))
         assert r.status is PlanStatus.FOUND and check_plan(problem.assembly, r.steps) == []
         assert r.stats["fallbacks"] == r.stats["decisions"]
         assert r.stats["fallback_candidates"] <= k * r.stats["decisions"]  # k per decision
         assert r.stats["fallback_candidates"] < paper.stats["fallback_candidates"]
-    one = RapPlanner(fallback_k=1).solve(problem, fake_scorer(TableCnn(low)))
+    one = RapPlanner(fallback_k=1, high_probability=0.5, fallback_optimism=1.0).solve(problem, fake_scorer(TableCnn(low)))
     whole = problem.candidates(problem.whole)
     top = max(range(len(whole)), key=lambda j: (low(whole[j]), -j))
     assert frozenset(one.steps[-1].moving) == whole[top].moving  # k = 1: the model's choice
@@ -100,7 +101,7 @@ def test_rap_takes_the_most_confident_high_candidate_without_simulating():
     problem = PlanningProblem(six("triangles"), PARAMS)
     cnn = TableCnn(lambda op: 0.5 + 0.4 * hash_score(op))  # every candidate "high"
     scorer = fake_scorer(cnn)
-    r = RapPlanner().solve(problem, scorer)
+    r = RapPlanner(high_probability=0.5, fallback_optimism=1.0).solve(problem, scorer)
     assert r.stats["fallbacks"] == 0
     assert r.stats["sim_run"] == r.stats["eval_simulations"] == len(r.steps)  # evaluation only
     assert all(s.source == "cnn" and s.confidence >= 0.5 for s in r.steps)
@@ -176,7 +177,7 @@ def test_rap_breaks_ties_in_p_high_by_the_expected_score():
     # P(high) saturates at 1.0 in float32 for near-certain candidates: the most confident of
     # those is the one with the highest expected score, not the first in candidate order
     problem = PlanningProblem(six("triangles"), PARAMS)
-    r = RapPlanner().solve(problem, fake_scorer(TableCnn(lambda op: 1.0, score_fn=hash_score)))
+    r = RapPlanner(high_probability=0.5, fallback_optimism=1.0).solve(problem, fake_scorer(TableCnn(lambda op: 1.0, score_fn=hash_score)))
     assert r.stats["fallbacks"] == 0
     whole = problem.candidates(problem.whole)
     best = max(range(len(whole)), key=lambda j: (hash_score(whole[j]), -j))
@@ -186,7 +187,7 @@ def test_rap_breaks_ties_in_p_high_by_the_expected_score():
 def test_rap_best_first_fallback_with_a_perfect_ranking_is_the_sim_baseline_at_two_per_decision():
     problem = PlanningProblem(six("triangles"), PARAMS)
     perfect = TableCnn(lambda op: 0.4 * hash_score(op), score_fn=hash_score)  # never high
-    r = RapPlanner(fallback_optimism=0.0).solve(problem, fake_scorer(perfect))
+    r = RapPlanner(fallback_optimism=0.0, high_probability=0.5).solve(problem, fake_scorer(perfect))
     sim = SimPlanner().solve(problem, fake_scorer())
     assert [s.to_json() for s in r.steps] == [s.to_json() for s in sim.steps]
     assert r.stats["fallbacks"] == r.stats["decisions"]
@@ -204,7 +205,7 @@ def test_rap_fallback_optimism_one_is_the_papers_rule_in_one_batch_per_level():
     assert paper.stats["fallback_candidates"] == sim.stats["sim_run"] - sim.stats["eval_simulations"]
     # one simulator batch per level (the evaluation finds every chosen step's score cached)
     assert scorer.stats.sim_calls == paper.stats["levels"]
-    assert vars(make_planner("rap", **PAPER_RAP)) == vars(RapPlanner())
+    assert vars(make_planner("rap", **PAPER_RAP)) == vars(RapPlanner(high_probability=0.5, fallback_optimism=1.0))
 
 
 def test_rap_defaults_and_a_capped_best_first_fallback():
@@ -213,7 +214,7 @@ def test_rap_defaults_and_a_capped_best_first_fallback():
         RAP_HIGH_PROBABILITY, RAP_FALLBACK_OPTIMISM, None)
     problem = PlanningProblem(six("triangles"), PARAMS)
     flat = TableCnn(lambda op: 0.1, score_fn=lambda op: 0.5)
-    capped = RapPlanner(fallback_optimism=0.4, fallback_k=3).solve(problem, fake_scorer(flat))
+    capped = RapPlanner(fallback_optimism=0.4, fallback_k=3, high_probability=0.5).solve(problem, fake_scorer(flat))
     assert capped.stats["fallbacks"] == capped.stats["decisions"]
     assert capped.stats["fallback_candidates"] <= 3 * capped.stats["decisions"]
     assert check_plan(problem.assembly, capped.steps) == []

@@ -15,7 +15,7 @@ from rap.operation import Operation
 from rap.plan.scoring.cache import ScoreCache
 from rap.plan.report.poses import CSV_COLUMNS, annotate_plan, centroid, plan_rows, robot_move
 from rap.plan.scoring.local_simulator import LocalSimulator
-from rap.plan.planners.base import SimPlanner
+from rap.plan.planners.greedy import SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStatus, PlanStep
 from rap.stats import clopper_pearson, successes_of

@@ -8,7 +8,7 @@ import pytest
 
 from rap.plan.scoring.cache import ScoreCache
 from rap.plan.scoring.local_simulator import LocalSimulator
-from rap.plan.planners.base import SimPlanner
+from rap.plan.planners.greedy import SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult
 from rap.plan.scoring.scorer import Scorer

@@ -8,7 +8,7 @@ import pytest
 
 from rap.plan.scoring.cache import ScoreCache
 from rap.plan.methods import make_planner
-from rap.plan.planners.base import OptimalPlanner
+from rap.plan.planners.optimal import OptimalPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanStatus
 from rap.plan.scoring.scorer import Scorer
@@ -34,7 +34,7 @@ def tree(result):
 def test_a_perfect_model_gives_exactly_the_optimum(name):
     problem = PlanningProblem(six(name), PARAMS)
     perfect = TableCnn(lambda op: 0.5, score_fn=hash_score)  # the simulator's own scores
-    found = SearchPlanner().solve(problem, scorer(perfect))
+    found = SearchPlanner(simulations=0, upper=0.0).solve(problem, scorer(perfect))
     best = OptimalPlanner().solve(problem, scorer(None))
     assert found.status is PlanStatus.FOUND and found.stats["search"] == "exact"
     assert tree(found) == tree(best)
@@ -57,9 +57,9 @@ def test_simulations_where_they_decide_fix_a_wrong_model():
             noise[k] = float(rng.normal(0, 0.08))
         return min(1.0, max(0.0, hash_score(op) + noise[k]))
 
-    blind = SearchPlanner().solve(problem, scorer(TableCnn(lambda op: 0.5, noisy)))
+    blind = SearchPlanner(simulations=0, upper=0.0).solve(problem, scorer(TableCnn(lambda op: 0.5, noisy)))
     budget = 60
-    sure = SearchPlanner(simulations=budget).solve(problem, scorer(TableCnn(lambda op: 0.5, noisy)))
+    sure = SearchPlanner(simulations=budget, upper=0.0).solve(problem, scorer(TableCnn(lambda op: 0.5, noisy)))
     assert sure.stats["search_simulations"] <= budget
     assert sure.robustness >= blind.robustness - 1e-12
     assert sure.robustness <= best.robustness + 1e-12
@@ -73,18 +73,18 @@ def test_beam_engages_beyond_the_budget_and_plans_validly(width):
     asm = gen.random_tiling(12, np.random.default_rng(5))
     problem = PlanningProblem(asm, PARAMS)
     cnn = TableCnn(lambda op: 0.5, score_fn=hash_score)
-    r = SearchPlanner(beam_width=width, max_operations=50).solve(problem, scorer(cnn))
+    r = SearchPlanner(beam_width=width, max_operations=50, simulations=0, upper=0.0).solve(problem, scorer(cnn))
     assert r.status is PlanStatus.FOUND and r.stats["search"] == "beam"
     assert r.stats["beam_width"] == width and len(r.steps) == len(asm) - 1
     assert check_plan(asm, r.steps) == []
-    exact = SearchPlanner().solve(problem, scorer(TableCnn(lambda op: 0.5, score_fn=hash_score)))
+    exact = SearchPlanner(simulations=0, upper=0.0).solve(problem, scorer(TableCnn(lambda op: 0.5, score_fn=hash_score)))
     assert r.stats["predicted_robustness"] <= exact.stats["predicted_robustness"] + 1e-12
 
 
 def test_wider_beams_never_do_worse_on_the_model_score():
     gen = pytest.importorskip("rap.geometry.families.simple")
     problem = PlanningProblem(gen.random_tiling(10, np.random.default_rng(2)), PARAMS)
-    got = [SearchPlanner(beam_width=w, max_operations=1).solve(
+    got = [SearchPlanner(beam_width=w, max_operations=1, simulations=0, upper=0.0).solve(
         problem, scorer(TableCnn(lambda op: 0.5, score_fn=hash_score))).stats["predicted_robustness"]
            for w in (1, 2, 4, 16)]
     assert got[-1] >= got[0] - 1e-12
@@ -92,7 +92,7 @@ def test_wider_beams_never_do_worse_on_the_model_score():
 
 def test_interlocked_assembly_is_infeasible():
     problem = PlanningProblem(memory(FRAMED_HOLE), PARAMS)
-    for planner in (SearchPlanner(), SearchPlanner(max_operations=1)):
+    for planner in (SearchPlanner(simulations=0, upper=0.0), SearchPlanner(max_operations=1, simulations=0, upper=0.0)):
         r = planner.solve(problem, scorer(TableCnn(lambda op: 0.5)))
         assert r.status is PlanStatus.INFEASIBLE and r.interlocked
 
@@ -114,19 +114,19 @@ def _noisy_model(seed: int = 0, sd: float = 0.08, top: float = 1.0):
 def test_trusted_predictions_are_never_simulated_and_the_rest_converges(trust):
     problem = PlanningProblem(six("triangles"), PARAMS)
     s = scorer(_noisy_model())
-    r = SearchPlanner(simulations=10_000, trust=trust).solve(problem, s)
+    r = SearchPlanner(simulations=10_000, trust=trust, upper=0.0).solve(problem, s)
     assert r.status is PlanStatus.FOUND and check_plan(problem.assembly, r.steps) == []
     for step in r.steps:  # converged: each step simulated, or predicted at `trust` or more
         assert (step.source == "sim") != (step.confidence >= trust)
-    untrusted = SearchPlanner(simulations=10_000).solve(problem, scorer(_noisy_model()))
+    untrusted = SearchPlanner(simulations=10_000, upper=0.0).solve(problem, scorer(_noisy_model()))
     assert all(step.source == "sim" for step in untrusted.steps)
     assert r.stats["search_simulations"] <= untrusted.stats["search_simulations"]
 
 
 def test_trust_above_every_prediction_changes_nothing():
     problem = PlanningProblem(six("hexagon"), PARAMS)
-    a = SearchPlanner(simulations=12).solve(problem, scorer(_noisy_model(1, top=0.99)))
-    b = SearchPlanner(simulations=12, trust=0.995).solve(problem, scorer(_noisy_model(1, top=0.99)))
+    a = SearchPlanner(simulations=12, upper=0.0).solve(problem, scorer(_noisy_model(1, top=0.99)))
+    b = SearchPlanner(simulations=12, trust=0.995, upper=0.0).solve(problem, scorer(_noisy_model(1, top=0.99)))
     assert tree(a) == tree(b) and a.stats["search_simulations"] == b.stats["search_simulations"]
     with pytest.raises(ValueError, match=r"trust 0.0: choose a score in \(0, 1\]"):
         make_planner("search", trust=0.0)  # the options are checked where declared
@@ -137,7 +137,7 @@ def test_full_optimism_finds_the_optimum_whatever_the_model_says(name):
     problem = PlanningProblem(six(name), PARAMS)
     best = OptimalPlanner().solve(problem, scorer(None))
     for model in (_noisy_model(2, sd=0.3), TableCnn(lambda op: 0.5, lambda op: 0.0)):
-        r = SearchPlanner(simulations=100_000, optimism=1.0).solve(problem, scorer(model))
+        r = SearchPlanner(simulations=100_000, optimism=1.0, upper=0.0).solve(problem, scorer(model))
         assert r.robustness == pytest.approx(best.robustness)
         assert all(s.source == "sim" for s in r.steps)
         # a best-first search: it never needs every operation the optimum simulates
@@ -148,7 +148,7 @@ def test_full_optimism_finds_the_optimum_whatever_the_model_says(name):
 def test_optimism_trades_simulations_for_robustness_monotonically_here():
     problem = PlanningProblem(six("triangles"), PARAMS)
     best = OptimalPlanner().solve(problem, scorer(None))
-    runs = [SearchPlanner(simulations=100_000, optimism=u).solve(problem, scorer(_noisy_model()))
+    runs = [SearchPlanner(simulations=100_000, optimism=u, upper=0.0).solve(problem, scorer(_noisy_model()))
             for u in (0.0, 0.5, 1.0)]
     sims = [r.stats["search_simulations"] for r in runs]
     assert sims[0] <= sims[1] <= sims[2]
@@ -166,7 +166,7 @@ def test_a_spent_budget_under_optimism_chooses_by_what_is_known():
     problem = PlanningProblem(six("hexagon"), PARAMS)
     best = OptimalPlanner().solve(problem, scorer(None))
     perfect = TableCnn(lambda op: 0.5, score_fn=hash_score)
-    r = SearchPlanner(simulations=3, optimism=1.0).solve(problem, scorer(perfect))
+    r = SearchPlanner(simulations=3, optimism=1.0, upper=0.0).solve(problem, scorer(perfect))
     assert r.stats["search_simulations"] == 3
     assert r.robustness == pytest.approx(best.robustness)
     assert r.stats["predicted_robustness"] == pytest.approx(best.robustness)

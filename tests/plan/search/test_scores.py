@@ -17,7 +17,7 @@ from rap.plan.scoring.cache import ScoreCache
 from rap.plan.dp import dp_choice
 from rap.plan.graph import reachable
 from rap.plan.methods import SearchOptions, from_table_name
-from rap.plan.planners.base import OptimalPlanner
+from rap.plan.planners.optimal import OptimalPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStatus
 from rap.plan.scoring.scorer import Scorer
@@ -30,6 +30,10 @@ from tests.plan.standins import HashSim, TableCnn, hash_score
 
 PARAMS = SimParams(trials=10)
 WIDTH = 0.2  # the under-prediction of ``low``: the simulator's score lies in [p, p + WIDTH]
+
+
+#: the search of 0.2 and earlier when built without arguments: the model's scores alone
+OLD = dict(simulations=0, upper=0.0)
 
 
 def scorer(score_fn=hash_score):
@@ -71,7 +75,7 @@ def checked(problem, result):
 def test_a_perfect_scorer_bounds_at_the_optimum_and_reaches_it(name):
     problem = PlanningProblem(six(name), PARAMS)
     best = optimum(problem)
-    for planner in (SearchPlanner(bounds=ScoreBounds.zero_width()),
+    for planner in (SearchPlanner(bounds=ScoreBounds.zero_width(), simulations=0, upper=0.0),
                     SearchPlanner(bounds=ScoreBounds.zero_width(), upper=1.0, simulations=1000),
                     SearchPlanner(bounds=ScoreBounds.zero_width(), upper=0.35, simulations=200,
                                   gap=0.05)):
@@ -112,7 +116,7 @@ def test_the_bound_never_falls_below_the_plan_and_covers_the_optimum(seed):
                         dict(simulations=60, upper=0.35, gap=0.05),
                         dict(simulations=int(rng.integers(1, 40)), upper=0.35, trust=0.8,
                              gap=0.1)):
-            found = SearchPlanner(bounds=bounds, **options).solve(problem, scorer(low(seed)))
+            found = SearchPlanner(bounds=bounds, **{**OLD, **options}).solve(problem, scorer(low(seed)))
             b = checked(problem, found)
             assert found.robustness <= best.robustness * (1 + 1e-12)
             if bounds is not loose:  # bounds that hold: the optimum lies under V
@@ -140,7 +144,7 @@ def test_gap_stops_early_and_says_so():
                                f"confidence: this plan has at least "
                                f"{100 * (1 - early.bound['gap']):.1f}% of the optimum's")
     assert lines[1] == f"stopped at --gap 0.1 after {n} simulations"
-    assert "stopped" not in " ".join(bound_lines(SearchPlanner(bounds=covering()).solve(
+    assert "stopped" not in " ".join(bound_lines(SearchPlanner(bounds=covering(), simulations=0, upper=0.0).solve(
         problem, scorer(low(1)))))
 
 
@@ -209,9 +213,9 @@ def test_without_simulations_upper_optimism_and_gap_change_nothing():
     beam = PlanningProblem(gen.random_tiling(10, np.random.default_rng(5)), PARAMS)
     for problem, extra in ((PlanningProblem(six("triangles"), PARAMS), {}),
                            (beam, dict(beam_width=3, max_operations=50))):
-        plain = SearchPlanner(bounds=covering(), **extra).solve(problem, scorer(low(1)))
+        plain = SearchPlanner(bounds=covering(), simulations=0, **extra).solve(problem, scorer(low(1)))
         for opts in (dict(upper=0.35, gap=0.05), dict(optimism=0.5, upper=1.0, gap=0.2)):
-            got = SearchPlanner(bounds=covering(), **extra, **opts).solve(problem,
+            got = SearchPlanner(bounds=covering(), simulations=0, **extra, **opts).solve(problem,
                                                                            scorer(low(1)))
             assert tree(got) == tree(plain) and got.stats["search_simulations"] == 0
             assert got.stats["predicted_operations"] == plain.stats["predicted_operations"]
@@ -227,7 +231,7 @@ def test_options_names_and_json():
     planner = opts.build()
     assert (planner.upper, planner.confidence, planner.gap) == (1.0, 0.9, 0.1)
     problem = PlanningProblem(six("hexagon"), PARAMS)
-    found = SearchPlanner(bounds=covering(), confidence=0.9).solve(problem, scorer(low(0)))
+    found = SearchPlanner(bounds=covering(), confidence=0.9, simulations=0, upper=0.0).solve(problem, scorer(low(0)))
     doc = found.to_json()
     assert doc["bound"]["confidence"] == 0.9 and doc["bound"]["scope"] == "exact"
     assert PlanResult.from_json(doc).to_json() == doc
@@ -236,7 +240,7 @@ def test_options_names_and_json():
     # the per-step level: Bonferroni over the n - 1 steps
     n = len(problem.whole)
     assert f"level {1 - 0.1 / (n - 1):.4g}" in SearchPlanner(
-        bounds=fit([0.5] * 500, [0.6] * 500), confidence=0.9).solve(
+        bounds=fit([0.5] * 500, [0.6] * 500), confidence=0.9, simulations=0, upper=0.0).solve(
         problem, scorer(low(0))).bound["note"]
     assert math.isclose(found.bound["robustness_upper"],
                         max(found.bound["robustness_upper"], found.robustness))
@@ -256,7 +260,7 @@ def test_bounds_simulate_a_few_operations_a_round_most_raised_first():
 def p1_and_p2(problem, model, **options):
     """The same search stopped when its choice settles (no ``gap``: phase 1 alone) and with
     phase 2 (module doc of ``rap.plan.search.planner``, 5)."""
-    return [SearchPlanner(bounds=covering(), **{**options, "gap": g}).solve(problem, scorer(model))
+    return [SearchPlanner(bounds=covering(), **{**OLD, **options, "gap": g}).solve(problem, scorer(model))
             for g in (None, options.get("gap"))]
 
 
