@@ -48,9 +48,9 @@ class InfeasiblePlan(RapError):
 
 def default_model_path() -> Path:
     """The model shipped with the package: ``rap/data/default_model.pt``."""
-    import rap
+    from rap.model.inference.operations import SHIPPED_MODEL
 
-    return Path(rap.__file__).resolve().parent / "data" / "default_model.pt"
+    return SHIPPED_MODEL
 
 
 def resolve_model(model: Path | None, method: str, echo) -> tuple[str | None, str]:
@@ -323,8 +323,8 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
     from rap.plan.methods import make_planner
     from rap.plan.cell.constraints import CellConstraints
     from rap.plan.problem import PlanningProblem
+    from rap.plan import plan
     from rap.plan.scoring.local_simulator import LocalSimulator
-    from rap.plan.scoring.scorer import Scorer
 
     # simulation workers first: they load the simulator while this process loads the model,
     # renders and scores (see LocalSimulator's prestart)
@@ -340,12 +340,12 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
             if sim.prestarted:
                 cnn.cores_busy = sim.loading
         cache_obj = ScoreCache(cache_path)
-        planner = make_planner(method, **(options or {}))
+        make_planner(method, **(options or {}))  # a bad option fails before the NDBG is built
         progress.update("building the NDBG")
         problem.candidates(problem.whole)  # builds it (once, kept by the problem)
         progress.update("NDBG built; planning")
-        result = planner.solve(problem, Scorer(sim, cnn, cache_obj,
-                                               on_progress=progress.scorer_progress))
+        result = plan(problem, method, model=cnn, simulator=sim, cache=cache_obj,
+                      on_progress=progress.scorer_progress, **(options or {}))
     finally:
         sim.close()
     cache_obj.flush()

@@ -34,6 +34,7 @@ from rap.errors import InputError, ParameterError
 from rap.model.inference.operations import OperationPredictor
 from rap.plan.scoring.cache import ScoreCache
 from rap.plan.cell.constraints import CellConstraints
+from rap.plan import plan
 from rap.plan.methods import from_table_name, needs_model
 from rap.plan.planners.base import Planner
 from rap.plan.problem import PlanningProblem
@@ -172,7 +173,7 @@ def _plan_one(asm, method: str, params, root_seed: int, sim_backend, cnn, model_
     scorer = Scorer(sim_backend, cnn if cnn_method else None, ScoreCache())  # cold
     if cnn_method:  # warm the CNN and renderer up once (imports, first-call costs)
         scorer.cnn.prob_high(problem, list(problem.candidates(problem.whole))[:1])
-    res = planner.solve(problem, scorer)
+    res = plan(problem, planner, scorer=scorer)
     st = res.stats
     r = st.get("mean_robustness") if method == "random" else res.robustness
     row = ExperimentRow(asm.name, method, r, res.seconds, res.eval_seconds, res.status.value,

@@ -1,0 +1,119 @@
+"""Planning robust assembly sequences: one front door, ``plan``, over rooms of one idea each.
+
+``plan(assembly, method="search", ...) -> PlanResult`` is how the CLI (``rap-farm plan``), the
+planning service and the experiment plan: it builds the problem, the scorer and the planner and
+solves, so the pipeline is assembled here only. The rooms:
+
+* ``problem`` (the assembly, its operation space, content keys and seeds), ``graph`` (the AND/OR
+  graph), ``dp`` (the dynamic programmes over it), ``interlocked`` (naming a minimal interlock),
+  ``methods`` (the registry of planning methods);
+* ``planners/``: the planner contract and the greedy, optimal and random planners, with options;
+* ``search/``: the default planner, its options, its score state and its bound;
+* ``scoring/``: the scorer, the local simulator, the score cache, the model's familiarity;
+* ``cell/``: robot-cell constraints and their rules;
+* ``report/``: the plan document, robot poses, reasons, intervals, the independent plan checker.
+
+No ray; torch only where a model is loaded with the torch engine.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rap.seeds import DEFAULT_ROOT_SEED
+
+if TYPE_CHECKING:
+    from rap.plan.report.result import PlanResult
+
+__all__ = ["plan"]
+
+
+def plan(assembly, method="search", *, model=None, constraints=None,
+         seed: int = DEFAULT_ROOT_SEED, params=None, space: str = "online", simulator=None,
+         cache=None, scorer=None, on_progress=None, **options) -> "PlanResult":
+    """Plan a robust assembly sequence.
+
+    Parameters
+    ----------
+    assembly : ``rap.assembly.Assembly``, a path (JSON, DXF or SVG: ``rap.io.load_assembly``) or a
+        ``rap.plan.problem.PlanningProblem`` already built (then ``constraints``, ``seed``,
+        ``params`` and ``space`` are the problem's).
+    method : a method name of ``rap.plan.methods.METHODS`` (``search``, the default; ``rap``,
+        ``sim``, ``optimal``, ``random``) or a planner object (``rap.plan.planners.base.Planner``).
+    model : for methods that need one, a checkpoint path or a loaded CNN backend
+        (``rap.model.inference.operations.OperationPredictor``); None: the shipped model.
+    constraints : ``rap.plan.cell.constraints.CellConstraints`` of a robot cell (None: none).
+    seed, params, space : the root seed of every simulation, the simulator's parameters
+        (``rap.sim.params.SimParams``; None: the defaults, 100 trials) and the operation space.
+    simulator : a simulator backend (``simulate_many``); None: simulations in this process.
+    cache : a ``rap.plan.scoring.cache.ScoreCache`` (None: a fresh one in memory).
+    scorer : a ready ``rap.plan.scoring.scorer.Scorer`` instead of ``model``, ``simulator`` and
+        ``cache`` (the planning service passes one per request).
+    on_progress : called with the scorer's counters before and after each batch.
+    **options : the method's options (``rap-farm plan --help``; e.g. ``simulations=0``).
+
+    Returns
+    -------
+    ``rap.plan.report.result.PlanResult``: ``status`` (found, infeasible with the interlocked
+    subassembly named, or budget spent), the steps in assembly order with their simulated scores,
+    ``robustness`` (R, their product) and its interval, and the search's ``bound``.
+
+    Raises
+    ------
+    ``rap.errors.InputError`` (a bad file or model path), ``rap.errors.ParameterError`` (an
+    unknown method or an option out of range; it names the option).
+
+    Example
+    -------
+    >>> from rap.plan import plan
+    >>> from rap.sim.params import SimParams
+    >>> result = plan("assemblies/rectilinear.json", simulations=0, params=SimParams(trials=10))
+    >>> result.status.value, len(result.steps), 0.0 <= result.robustness <= 1.0
+    ('found', 7, True)
+    >>> plan("assemblies/rectilinear.json", "magic")
+    Traceback (most recent call last):
+    rap.errors.ParameterError: method 'magic': choose one of rap, sim, optimal, random, search
+    """
+    from rap.errors import InputError
+    from rap.plan.cell.constraints import CellConstraints
+    from rap.plan.methods import make_planner
+    from rap.plan.planners.base import Planner
+    from rap.plan.problem import PlanningProblem
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.plan.scoring.scorer import Scorer
+    from rap.sim.params import SimParams
+
+    planner = method if isinstance(method, Planner) else make_planner(method, **options)
+    if isinstance(assembly, PlanningProblem):
+        problem = assembly
+    else:
+        if isinstance(assembly, (str, Path)):
+            from rap.io import load_assembly
+
+            assembly = load_assembly(assembly)
+        problem = PlanningProblem(assembly, params or SimParams(), seed, space,
+                                  constraints=constraints or CellConstraints())
+    if scorer is not None:
+        return planner.solve(problem, scorer)
+    needs = planner.options.needs_model
+    if needs and (model is None or isinstance(model, (str, Path))):
+        from rap.model.inference.operations import SHIPPED_MODEL, OperationPredictor
+
+        path = Path(model) if model is not None else SHIPPED_MODEL
+        if not path.is_file():
+            raise InputError(f"{path}: no such checkpoint file (method {planner.name} needs a "
+                             f"model)")
+        model = OperationPredictor.load(path, engine="auto")
+    own = simulator is None
+    if own:
+        from rap.plan.scoring.local_simulator import LocalSimulator
+
+        simulator = LocalSimulator(processes=1)
+    try:
+        return planner.solve(problem, Scorer(simulator, model if needs else None,
+                                             cache if cache is not None else ScoreCache(),
+                                             on_progress=on_progress))
+    finally:
+        if own:
+            simulator.close()

@@ -42,7 +42,7 @@ from rap.operation import Operation
 from rap.plan.scoring.cache import CachedScore, ScoreCache
 from rap.plan.scoring.local_simulator import LocalSimulator
 from rap.plan.cell.constraints import CellConstraints
-from rap.plan.methods import make_planner
+from rap.plan import plan
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult
 from rap.plan.scoring.scorer import Budget, Scorer
@@ -172,8 +172,8 @@ class PlanningService:
             cache = ScoreCache() if request.cold else None
             scorer = self.base.fork(budget=request.budget, cache=cache)
             t = time.perf_counter()
-            result = make_planner(request.method, samples=request.samples,
-                                  **request.planner_options).solve(problem, scorer)
+            result = plan(problem, request.method, scorer=scorer, samples=request.samples,
+                          **request.planner_options)
             if cache is not None:
                 self.cache.put_many(cache.items())
             stats = dict(result.stats, service_seconds=time.perf_counter() - t)

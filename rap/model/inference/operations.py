@@ -35,7 +35,10 @@ import numpy as np
 from rap.assembly import Assembly
 from rap.operation import Operation
 
-__all__ = ["OperationPredictor", "HasAssembly", "IMAGE_SIZE", "SHARE_CHUNK"]
+__all__ = ["OperationPredictor", "HasAssembly", "IMAGE_SIZE", "SHARE_CHUNK", "SHIPPED_MODEL"]
+
+#: the model shipped with the package (its card: docs/MODEL.md)
+SHIPPED_MODEL = Path(__file__).resolve().parents[2] / "data" / "default_model.pt"
 
 IMAGE_SIZE = 64
 #: images per forward pass while ``OperationPredictor.cores_busy`` is consulted (a multiple of
