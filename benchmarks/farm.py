@@ -35,16 +35,9 @@ sys.path.insert(0, str(ROOT))
 from rap.io import load_assembly  # noqa: E402
 from rap.enumerate import label_seed, select_operations  # noqa: E402
 from rap.sim.params import SimParams  # noqa: E402
+from tests.farm.test_scale import rss_mib  # noqa: E402  (one home: the scale test's)
 
 NAMES = ["grid", "hexagon", "mixed-square", "pentagons", "rectilinear", "triangles"]
-
-
-def rss_mib() -> float:
-    with open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    return float("nan")
 
 
 def blank_render(assembly, operation, params=None, size: int = 64):

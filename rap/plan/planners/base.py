@@ -73,8 +73,8 @@ class Planner(abc.ABC):
             return {k: now[k] - base[k] for k in now}
 
         stats.update(constraint_stats(problem))  # the cell's constraints, the scores' scope
-        try:
-            steps = self._search(problem, scorer, stats)
+        try:  # a single part needs no step
+            steps = self._search(problem, scorer, stats) if len(problem.whole) >= 2 else []
         except Interlocked as exc:
             culprit, message = blocked_by(problem, exc.subset)  # an interlock or a constraint
             return PlanResult(PlanStatus.INFEASIBLE, self.name, problem.assembly.name,
@@ -105,4 +105,5 @@ class Planner(abc.ABC):
 
     @abc.abstractmethod
     def _search(self, problem: PlanningProblem, scorer: Scorer, stats: dict) -> list[PlanStep]:
-        """The steps in assembly order (scores filled in later), or raise ``Interlocked``."""
+        """The steps in assembly order (scores filled in later), or raise ``Interlocked``; the
+        problem has at least two parts."""

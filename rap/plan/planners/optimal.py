@@ -37,8 +37,6 @@ class OptimalPlanner(Planner):
 
     def _search(self, problem, scorer, stats):
         whole = problem.whole
-        if len(whole) < 2:
-            return []
         graph = reachable(problem)
         if not graph[whole]:
             raise Interlocked(whole)

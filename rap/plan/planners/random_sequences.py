@@ -42,8 +42,6 @@ class RandomPlanner(Planner):
 
     def _search(self, problem, scorer, stats):
         whole = problem.whole
-        if len(whole) < 2:
-            return []
         key = hashlib.sha256(f"random-sequences|{problem.geometry_hash}|{problem.space}".encode()).hexdigest()
         rng = derive_rng(problem.root_seed, key)
         sequences: list[dict[frozenset, PlanStep]] = []

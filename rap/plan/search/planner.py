@@ -1,91 +1,45 @@
-"""Near-optimal sequences at the model's cost: search over the AND/OR graph with learned scores.
+"""The default planner: the best product of step scores over the AND/OR graph, with learned scores.
 
-``SearchPlanner`` maximises the product of step scores over assembly sequences, like
-``OptimalPlanner``, but with the CNN's *expected score* of an operation (``Scorer.expected_scores``:
-the binomial head's calibrated success rate) standing in for the simulator, which is then spent
-only where it decides:
+``SearchPlanner`` maximises R, the product of step scores, like ``OptimalPlanner``, but with the
+CNN's expected score of an operation (``Scorer.expected_scores``) standing in for the simulator,
+which is spent only where it decides. Its options and their measured defaults are
+``rap.plan.search.options.SearchOptions``; docs/PLANNING.md explains each one.
 
-1. **Exact** (the operation space has at most ``max_operations`` candidate operations): dynamic
-   programming over the reachable subassemblies, ``best(S) = max r(op) best(M) best(F)`` (the
-   optimum's own recursion and tie-breaking, by branch and bound: ``rap.plan.dp``, which
-   renders and scores a subassembly's candidates only when it can still matter), where ``r(op)``
-   is the simulated score of an operation already simulated and the model's expected score
-   otherwise. An interlocked subassembly is a dead end (``best = 0``), not a failure.
-2. **Beam** (beyond the budget, e.g. 30 or 100 parts): top-down beam search: every state is a
-   partial decomposition; each round expands the largest open subassembly of every state with all
-   its candidates and keeps the ``beam_width`` states of highest score product (all states hold
-   the same number of operations, so products compare fairly). Predictions are cached by
-   operation key across states; memory is O(beam_width x parts) states plus the cache.
-3. **Simulations where they matter**: up to ``simulations`` fresh simulations (here 0; ``plan``'s
-   default, ``rap.plan.methods.SearchOptions``: 200 with ``upper`` 0.35 and ``gap`` 0.05). In
-   exact mode, the operations of the chosen sequence that were not simulated yet are simulated
-   (one batch per round), their scores replace the predictions, and the DP is solved again, until
-   every operation of the chosen sequence is simulated or trusted, or the budget is spent. An
-   operation is *trusted* when its predicted score is at least ``trust`` (None: none is): the
-   model is then sure enough that it succeeds (0.97 on the binomial head is P(high) of about 0.9)
-   and a simulation would rarely change the choice. In beam mode the same is done over the final
-   beam's complete sequences (re-ranked by mixed products).
-4. **Optimism** ``u`` in [0, 1] (default 0): while choosing, an operation neither simulated nor
-   trusted counts as ``p + u (1 - p)`` (its predicted failure rate shrunk by ``1 - u``), so an
-   alternative the model may underrate gets chosen, simulated and kept if it holds up. ``u = 0``
-   is the plain model; with ``u = 1`` every unsimulated operation is an upper bound (1), and
-   exact mode with the budget not spent returns the optimum's robustness whatever the model says
-   (a best-first search; on held-out assemblies it simulated half the operations). When the
-   budget runs out first, the plan is chosen again without optimism (by what is known). The
-   plan's scores are reported without optimism.
+1. **Exact** (at most ``max_operations`` candidate operations): the optimum's DP over the
+   reachable subassemblies by branch and bound (``rap.plan.dp.dp_choice_bounded``: a
+   subassembly's candidates are rendered and scored only when they can still matter). An
+   interlocked subassembly is a dead end (value 0), not a failure.
+2. **Beam** (beyond it, e.g. 30 or 100 parts): top-down beam search over partial decompositions,
+   each round expanding every state's largest open subassembly and keeping the ``beam_width``
+   states of highest score product.
+3. **Refine** (``_refine``, both modes): the chosen sequence's operations neither simulated nor
+   trusted (predicted at ``trust`` or more) are simulated, their scores replace the predictions
+   and the choice is made again, until it is settled or ``simulations`` are spent. While
+   choosing, an unsimulated operation counts as ``max(p + optimism (1 - p), p + upper (u - p))``,
+   ``u`` its conformal upper bound (``rap.model.calibration``; ``rap.plan.search.scores``), so
+   an alternative the model may underrate is chosen, simulated and kept if it holds up; with
+   ``upper`` > 0, ``bound_round`` operations a round, the most raised first. When the budget is
+   spent the plan is chosen again by what is known.
+4. **Bound**: ``V``, the best product of upper bounds (simulated scores where known) over every
+   sequence, bounds the optimum's robustness at ``confidence`` (Bonferroni over the steps). The
+   best fully simulated sequence is the incumbent ``I``; the search stops when ``I >= V``
+   (``bound``) or, with ``gap``, ``I >= (1 - gap) V``. Phase 2: when the choice is settled short
+   of the gap, it goes on by the bounds themselves until within it, and returns the incumbent,
+   never a worse plan than the settled choice (``stats``: ``stopped``, ``phase1_simulations``,
+   ``phase2_simulations``, ``search_bound``). In beam mode ``V`` and ``I`` range over the final
+   beam's sequences only (the bound's ``scope``: ``beam``).
+5. **A bound with every plan**: after the plan's steps are simulated for its evaluation, ``V`` is
+   computed again with those scores (never below R) and reported as ``PlanResult.bound``
+   (``rap.plan.search.scores.report``); its time is ``stats["bound_seconds"]``.
 
-5. **Bounds** (``rap.plan.search.scores``): every unsimulated operation also has an upper bound
-   ``u`` on its simulated score, split-conformal from the model's expected score
-   (``rap.model.calibration``, the shipped calibration ``rap/data/score_bounds.json``; without it
-   every ``u`` is 1), at the per-operation level ``1 - (1 - confidence) / (n - 1)`` (Bonferroni
-   over a sequence's ``n - 1`` steps). ``V``, the best product of ``u`` (simulated scores where
-   known) over every sequence, bounds the optimum's robustness at ``confidence`` (default 0.95).
-   ``upper`` ``w`` in [0, 1] (default 0: off) makes an unsimulated, untrusted operation count as
-   ``max(p + u_opt (1 - p), p + w (u - p))`` while choosing (``u_opt`` the optimism; the larger
-   of the two raises). With ``upper > 0`` each round simulates ``bound_round`` (``BOUND_ROUND``,
-   2) of the optimistic sequence's unsimulated, untrusted operations, the most raised first
-   (largest chosen / known score), instead of all of them. With ``upper = 1`` (no optimism, no
-   trust) the choice's value is ``V`` and this is branch and bound: the search stops when the
-   best fully simulated sequence (the *incumbent* ``I``) reaches ``V`` (nothing left can beat
-   it). With ``gap`` (None or 0: off; any ``upper`` or optimism) ``V`` is computed each round
-   and the search stops once ``I >= (1 - gap) V``. With ``simulations`` 0, optimism, ``upper``
-   and ``gap`` change nothing (the plan is chosen by the model's scores alone). Otherwise it
-   stops when the choice is settled or the budget spent (then the plan is chosen by what is
-   known, as above); a stop by ``gap`` or ``V`` returns the incumbent (``stats["stopped"]``:
-   ``settled``, ``budget``, ``gap`` or ``bound``, ``stats["stopped_after"]`` the simulations
-   spent). In beam mode ``V`` and the incumbent range over the final beam's sequences only
-   (reported as the bound's ``scope``: ``beam``).
+With a perfect model the exact mode returns the optimum; with zero-width bounds too, ``V`` is the
+optimum. Each step says where its score came from: ``sim`` or ``cnn``. Variants measured not to
+pay (per-assembly score correction, sequential tests, scoring the whole graph first) live in
+``research/variants/``.
 
-   **Phase 2: simulating until within the gap.** When the choice is settled (every operation
-   simulated or trusted) but ``gap`` is set, ``I < (1 - gap) V`` and budget remains, the search
-   goes on as branch and bound on the bounds themselves (``SearchScores.by_bounds``: upper 1,
-   no optimism, no trust): each round simulates ``bound_round`` of the unsimulated operations
-   of the sequence achieving ``V``, the most raised first, until ``I >= (1 - gap) V`` (stop
-   ``gap``), ``I >= V`` (``bound``: no sequence left can beat it) or the budget is spent
-   (``budget``). Its plan is always the incumbent, never chosen again from unsimulated
-   operations, or phase 1's settled choice where that is better by known scores (possible only
-   with trusted operations in it): phase 2 can only lower ``V`` or find a better fully
-   simulated plan, never return a worse one than phase 1's. ``stats``: ``phase1_simulations``,
-   ``phase2_simulations``, ``search_bound`` (``V`` when it stopped). The same in beam mode,
-   over the final beam's sequences. With ``upper`` 1, no optimism and no trust, phase 1 is
-   this already.
-6. **A bound with every plan**: after the plan's steps are simulated for evaluation, ``V`` is
-   computed again with those scores (so it is never below the plan's own robustness ``R``) and
-   reported as ``PlanResult.bound``: ``{"robustness_upper": V, "confidence", "gap": 1 - R / V,
-   "scope", "note"}`` (``rap.plan.search.scores.report``); its time and CNN batches are in the
-   stats (``bound_seconds``), not in ``seconds``.
-
-Variants measured not to pay (per-assembly score correction, sequential tests, scoring the whole
-graph eagerly) live in ``research/variants/`` with their results (docs/RESULTS.md,
-research/README.md).
-
-With a perfect model (predictions equal to the simulator's scores) the exact mode returns the
-optimum exactly; with zero-width bounds too (``ScoreBounds.zero_width()``), ``V`` is the optimum. Each step of the plan says where its score came from: ``sim`` or ``cnn``.
-
-Cost: one CNN batch per subassembly visited (exact; on held-out assemblies 65-71% of the graph's
-operations on average) or per round's candidates (beam), plus the simulations asked for, plus the
-bound's dynamic programme (``max_value``: the subassemblies it visits that the search did not are
-scored by the CNN; none when the bounds are uncalibrated). No ray, no torch.
+Cost: one CNN batch per subassembly visited (exact; 65-71% of the graph's operations on held-out
+assemblies) or per round (beam), the simulations asked for, and the bound's DP (``max_value``).
+No ray, no torch.
 """
 
 from __future__ import annotations
@@ -171,12 +125,6 @@ class SearchPlanner(Planner):
             todo = todo[:self.bound_round]
         return todo[:max(0, math.ceil(self.simulations - spent))]
 
-    def _simulate(self, scores: SearchScores, todo: list, chosen, best) -> float:
-        """Simulate ``todo`` (steps of the choice ``chosen``; ``best()``: the incumbent's
-        robustness, for a variant that simulates against it); returns the simulations spent."""
-        scores.simulate(todo)
-        return len(todo)
-
     def _free_bound(self, scores: SearchScores) -> bool:
         """Whether the choosing scores are the upper bounds themselves (the DP's value is V)."""
         return scores.upper == 1.0 and not scores.optimism and scores.trust is None
@@ -225,8 +173,6 @@ class SearchPlanner(Planner):
 
     def _search(self, problem, scorer, stats):
         whole = problem.whole
-        if len(whole) < 2:
-            return []
         if self.bounds is None:
             self.bounds = load()
         raise_ = self.simulations > 0  # raised scores choose what to simulate: none to choose
@@ -279,32 +225,28 @@ class SearchPlanner(Planner):
 
         return max_value(graph, scores_of, whole, scores.memo("high"))
 
-    # -- exact ------------------------------------------------------------------------------------
-    def _exact(self, graph, scores: SearchScores, whole, stats) -> dict:
-        stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
+    # -- the refine loop, shared by both modes --------------------------------------------------
+    def _refine(self, scores: SearchScores, stats: dict, choose, bound, incumbent_of) -> dict:
+        """Simulate where it decides until the choice settles, the bound stops it or the budget
+        is spent (module doc, 3-5); returns the plan (subassembly -> operation).
 
-        def scores_of(s):  # predicted on the first visit, one CNN batch per subassembly
-            if not scores.cached("of", s):
-                scores.predict(graph[s])
-            return scores.scores("of", s, graph[s])
-
+        ``choose()``: ``(choice, value)``, the choice by the current scores and its DP value (or
+        None); ``bound(value)``: ``V``; ``incumbent_of()``: ``(robustness, plan or None)`` of the
+        best fully simulated sequence."""
         spent = 0
         floor = None  # phase 2 (module doc, 5): phase 1's settled choice and its robustness
         while True:
-            best, tree = dp_choice_bounded(graph, scores_of, whole, scores.memo("of"))
-            if best <= 0.0:
-                raise Interlocked(dead_end(graph, whole))
-            choice = {sub: op for sub, (_, op) in tree.items()}
+            choice, best = choose()
             if self._watching(scores):
-                value = best if self._free_bound(scores) else self._max_high(graph, scores, whole)
-                got, tree_got = incumbent(graph, scores, whole)
+                value = bound(best)
+                got, got_plan = incumbent_of()
                 if self._settled(got, value, spent, stats):
-                    return tree_got if floor is None else self._kept(scores, tree_got, floor,
+                    return got_plan if floor is None else self._kept(scores, got_plan, floor,
                                                                      spent, stats)
             todo = self._to_simulate(scores, choice.values())
             if floor is not None and (not todo or spent >= self.simulations):
                 stats.update(stopped="budget", search_bound=value, stopped_after=spent)
-                return self._kept(scores, tree_got, floor, spent, stats)
+                return self._kept(scores, got_plan, floor, spent, stats)
             if todo and spent >= self.simulations and scores.raised:
                 # budget spent with raised scores still in the choice: choose by what is known
                 scores.lower()
@@ -317,8 +259,28 @@ class SearchPlanner(Planner):
                 stats["stopped"] = "budget" if todo else "settled"
                 return choice
             todo = self._batch(scores, todo, spent)
-            spent += self._simulate(scores, todo, choice.values(),
-                                    lambda: incumbent(graph, scores, whole)[0])
+            scores.simulate(todo)
+            spent += len(todo)
+
+    # -- exact ------------------------------------------------------------------------------------
+    def _exact(self, graph, scores: SearchScores, whole, stats) -> dict:
+        stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
+
+        def scores_of(s):  # predicted on the first visit, one CNN batch per subassembly
+            if not scores.cached("of", s):
+                scores.predict(graph[s])
+            return scores.scores("of", s, graph[s])
+
+        def choose():
+            best, tree = dp_choice_bounded(graph, scores_of, whole, scores.memo("of"))
+            if best <= 0.0:
+                raise Interlocked(dead_end(graph, whole))
+            return {sub: op for sub, (_, op) in tree.items()}, best
+
+        return self._refine(
+            scores, stats, choose,
+            lambda best: best if self._free_bound(scores) else self._max_high(graph, scores, whole),
+            lambda: incumbent(graph, scores, whole))
 
     # -- beam -------------------------------------------------------------------------------------
     def _beam(self, problem: PlanningProblem, scores: SearchScores, whole, stats,
@@ -356,38 +318,25 @@ class SearchPlanner(Planner):
         stats.update(beam_rounds=rounds, beam_width=self.beam_width)
         run.beam = [[op for _, op in st[3]] for st in beam]
         # simulations where they matter: re-rank the final sequences by mixed products
-        spent = 0
-        floor = None  # phase 2, as in exact mode, over the final beam's sequences
-        while True:
-            ranked = sorted(beam, key=lambda st: (-sum(math.log(max(scores.of(op), 1e-300))
-                                                       for _, op in st[3]), st[1]))
-            top = ranked[0][3]
-            if self._watching(scores):
-                value = max(math.prod(scores.high(op) for op in seq) for seq in run.beam)
-                full = [st[3] for st in ranked if all(scores.is_simulated(op) for _, op in st[3])]
-                got = max((math.prod(scores.known(op) for _, op in seq), -i)
-                          for i, seq in enumerate(full)) if full else (0.0, 0)
-                got_plan = dict(full[-got[1]]) if full else None
-                if self._settled(got[0], value, spent, stats):
-                    return got_plan if floor is None else self._kept(scores, got_plan, floor,
-                                                                     spent, stats)
-            todo = self._to_simulate(scores, [op for _, op in top])
-            if floor is not None and (not todo or spent >= self.simulations):
-                stats.update(stopped="budget", search_bound=value, stopped_after=spent)
-                return self._kept(scores, got_plan, floor, spent, stats)
-            if todo and spent >= self.simulations and scores.raised:
-                scores.lower()  # as in exact mode: the budget is spent, rank by what is known
-                continue
-            if not todo and (floor := self._second_phase(scores, dict(top), spent, stats)):
-                continue
-            if not todo or spent >= self.simulations:
-                stats["predicted_robustness"] = math.prod(scores.known(op) for _, op in top)
-                stats["stopped"] = "budget" if todo else "settled"
-                return dict(top)
-            todo = self._batch(scores, todo, spent)
-            spent += self._simulate(scores, todo, [op for _, op in top], lambda: max(
-                (math.prod(scores.known(op) for _, op in st[3]) for st in beam
-                 if all(scores.is_simulated(op) for _, op in st[3])), default=0.0))
+        ranked: list = []
+
+        def choose():
+            ranked[:] = sorted(beam, key=lambda st: (-sum(math.log(max(scores.of(op), 1e-300))
+                                                          for _, op in st[3]), st[1]))
+            return dict(ranked[0][3]), None
+
+        def incumbent_of():
+            full = [st[3] for st in ranked if all(scores.is_simulated(op) for _, op in st[3])]
+            if not full:
+                return 0.0, None
+            got = max((math.prod(scores.known(op) for _, op in seq), -i)
+                      for i, seq in enumerate(full))
+            return got[0], dict(full[-got[1]])
+
+        return self._refine(
+            scores, stats, choose,
+            lambda _: max(math.prod(scores.high(op) for op in seq) for seq in run.beam),
+            incumbent_of)
 
 
 SearchOptions.planner = SearchPlanner
