@@ -31,10 +31,13 @@ from typing import Sequence
 from rap.operation import Operation
 from rap.plan.interlocked import interlocked_message
 
-__all__ = ["PlanStatus", "PlanStep", "PlanResult", "RobotMove", "SOURCES", 
+__all__ = ["PlanStatus", "PlanStep", "PlanResult", "RobotMove", "SOURCES", "FORMAT",
            "is_assembly_order"]
 
 SOURCES = ("cnn", "sim", "random")
+#: the plan document's format: 2 names a step's direction ``insertion`` (1: ``direction``) and
+#: carries ``format``; 1 is every document without it
+FORMAT = 2
 
 
 class PlanStatus(Enum):
@@ -193,7 +196,12 @@ class PlanResult:
     def from_json(cls, doc: dict, *, eval_seconds: float = 0.0,
                   stats: dict | None = None) -> "PlanResult":
         """The result described by a ``to_json()`` document (``eval_seconds`` and ``stats`` are
-        not in it). Raises ``ValueError`` for a document of another shape."""
+        not in it). Reads every format up to ``FORMAT`` (a document without ``format`` is
+        format 1, whose steps say ``direction`` for ``insertion``). Raises ``ValueError`` for a
+        document of another shape or a newer format."""
+        fmt = doc.get("format", 1) if isinstance(doc, dict) else None
+        if not isinstance(fmt, int) or isinstance(fmt, bool) or not 1 <= fmt <= FORMAT:
+            raise ValueError(f"plan format {fmt!r}: this rap-farm reads formats 1 to {FORMAT}")
         try:
             feasible = doc["feasible"]
             cell = {k: doc[k] for k in ("constraints", "score_note") if doc.get(k) is not None}
@@ -226,7 +234,11 @@ class PlanResult:
         return {k: self.stats[k] for k in ("constraints", "score_note") if k in self.stats}
 
     def to_json(self) -> dict:
-        """The ``--out`` document: exactly the keys documented for ``rap-farm plan``."""
+        """The ``--out`` document: exactly the keys documented for ``rap-farm plan``, with its
+        ``format`` (``FORMAT``) first."""
+        return {"format": FORMAT, **self._document()}
+
+    def _document(self) -> dict:
         if self.status is PlanStatus.FOUND:
             return {"assembly": self.assembly, "method": self.method, "feasible": True,
                     "units": self.units, "robustness": self.robustness,

@@ -28,3 +28,20 @@ def test_plan_documents_read_back_exactly(doc):
     assert [s.to_json() for s in back.steps] == [s.to_json() for s in result.steps]
     with pytest.raises(ValueError):
         PlanResult.from_json({"feasible": True})
+
+
+def test_the_plan_document_carries_its_format_and_older_ones_still_read():
+    from rap.plan.report.result import FORMAT, PlanResult, PlanStatus, PlanStep
+
+    step = PlanStep(("a",), ("b",), (0.0, -1.0), "sim", 0.9)
+    doc = PlanResult(PlanStatus.FOUND, "sim", "ab", (step,), 0.9, 1.0).to_json()
+    assert list(doc)[0] == "format" and doc["format"] == FORMAT == 2
+    assert doc["steps"][0]["insertion"] == [0.0, -1.0]
+    old = {k: v for k, v in doc.items() if k != "format"}  # format 1: no field, "direction"
+    old["steps"] = [{("direction" if k == "insertion" else k): v
+                     for k, v in doc["steps"][0].items()}]
+    back = PlanResult.from_json(old)
+    assert back.steps[0].insertion == (0.0, -1.0) and back.to_json() == doc
+    for bad in (3, "2", 0, True):
+        with pytest.raises(ValueError, match="this rap-farm reads formats 1 to 2"):
+            PlanResult.from_json({**doc, "format": bad})
