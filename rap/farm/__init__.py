@@ -1,4 +1,5 @@
-"""The orchestration layer: the only package that imports ``ray``; it runs ``rap.labelling`` on Ray.
+"""The labelling farm, the orchestration layer with ``rap.service`` (the only packages that import
+``ray``): it runs ``rap.labelling`` on Ray.
 
 * ``rap.farm.runtime``: start an embedded Ray or join a cluster (``connect``).
 * ``rap.farm.actors``: ``SimWorker``, the simulation actor (assemblies cached, physics in the worker).
