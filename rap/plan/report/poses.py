@@ -45,7 +45,8 @@ __all__ = ["RobotMove", "robot_move", "centroid", "annotate_plan", "plan_rows", 
 #: the columns of ``rap-farm plan --csv``, in order (README, "Plan files")
 CSV_COLUMNS = ("step", "moving", "fixed", "insertion_x", "insertion_y", "start_x", "start_y",
                "approach_x", "approach_y", "goal_x", "goal_y", "travel", "centroid_x",
-               "centroid_y", "units", "score", "score_low", "score_high", "source", "reason")
+               "centroid_y", "units", "score", "score_low", "score_high", "source", "reason",
+               "weakest_rank")
 
 
 def centroid(assembly: Assembly, ids: Sequence[str]) -> tuple[float, float]:
@@ -112,6 +113,7 @@ def plan_rows(result: PlanResult) -> list[dict]:
     """One dict per step of a found plan, keyed by ``CSV_COLUMNS`` (part ids joined by commas,
     as the table shows them: ids never hold one; unknown values as empty strings)."""
     rows = []
+    rank = {step: n for n, step in enumerate(result.weakest_steps(), 1)}
     for k, s in enumerate(result.steps, 1):
         r, lo_hi = s.robot, s.score_interval
         row = {"step": k, "moving": ",".join(s.moving), "fixed": ",".join(s.fixed),
@@ -119,7 +121,7 @@ def plan_rows(result: PlanResult) -> list[dict]:
                "units": result.units, "score": "" if s.score is None else s.score,
                "score_low": "" if lo_hi is None else lo_hi[0],
                "score_high": "" if lo_hi is None else lo_hi[1],
-               "source": s.source, "reason": s.reason or ""}
+               "source": s.source, "reason": s.reason or "", "weakest_rank": rank.get(k, "")}
         for name in ("start", "approach", "goal"):
             xy = None if r is None else getattr(r, name)
             row[f"{name}_x"] = "" if xy is None else tidy(xy[0])

@@ -38,6 +38,8 @@ SOURCES = ("cnn", "sim", "random")
 #: the plan document's format: 2 names a step's direction ``insertion`` (1: ``direction``) and
 #: carries ``format``; 1 is every document without it
 FORMAT = 2
+#: how many of a plan's weakest steps the document and the table name
+WEAKEST = 3
 
 
 class PlanStatus(Enum):
@@ -233,6 +235,22 @@ class PlanResult:
         (``rap.plan.cell.rules.constraint_stats``: ``constraints``, ``score_note`` in ``stats``)."""
         return {k: self.stats[k] for k in ("constraints", "score_note") if k in self.stats}
 
+    @property
+    def expected_failures(self) -> float | None:
+        """The expected number of failed steps, ``sum(1 - r)`` over the steps (None when a score
+        is unknown): beside R, what a long plan's reader can weigh (R = 0.000 at 100 steps says
+        nothing of whether the failures are spread or concentrated)."""
+        if not self.steps or any(s.score is None for s in self.steps):
+            return None if self.steps else 0.0
+        return float(sum(1.0 - s.score for s in self.steps))  # type: ignore[operator]
+
+    def weakest_steps(self, k: int = WEAKEST) -> list[int]:
+        """The numbers (1-based, assembly order) of the ``k`` steps of lowest score, weakest
+        first (ties: the earlier step); only steps whose score is below 1."""
+        scored = [(s.score, i) for i, s in enumerate(self.steps, 1)
+                  if s.score is not None and s.score < 1.0]
+        return [i for _, i in sorted(scored)[:k]]
+
     def to_json(self) -> dict:
         """The ``--out`` document: exactly the keys documented for ``rap-farm plan``, with its
         ``format`` (``FORMAT``) first."""
@@ -245,6 +263,8 @@ class PlanResult:
                     "robustness_interval": None if self.robustness_interval is None
                     else list(self.robustness_interval),
                     "confidence_level": self.confidence_level, "trials": self.trials,
+                    "expected_failures": self.expected_failures,
+                    "weakest_steps": self.weakest_steps(),
                     "steps": [s.to_json() for s in self.steps], "seconds": self.seconds,
                     **({} if self.bound is None else {"bound": dict(self.bound)}),
                     **self._cell_json()}
