@@ -234,7 +234,9 @@ class SimPool(WorkerSet):
                         raise FarmError(f"no simulation worker has been running for "
                                         f"{self.stall_timeout_s:.0f} s (lost nodes, or no free "
                                         f"CPUs on the cluster)")
-                    self._poll(self._wake(retry))
+                    wait, t0 = self._wake(retry), time.monotonic()
+                    if not self._poll(wait):  # nothing started: wait out the backoff's rest
+                        time.sleep(max(0.0, wait - (time.monotonic() - t0)))
                     continue
                 idle_since = None
                 probes = list(self._probes())

@@ -51,15 +51,16 @@ def cli(*args: str) -> list[str]:
 
 def sigterm_mid_run(cmd: list[str], ready, tmp_path: Path, env: dict | None = None,
                     timeout_s: float = 300.0) -> tuple[int, list[str], str]:
-    """Run ``cmd``, send SIGTERM once ``ready(proc, its stderr so far)``; its exit status, the
-    stderr lines written after the signal, and its whole stderr."""
-    err_path = tmp_path / f"stderr-{time.monotonic_ns()}"
-    with open(err_path, "w") as err:
-        proc = subprocess.Popen(cmd, cwd=str(ROOT), env=env or ray_env(),
-                                stdout=subprocess.DEVNULL, stderr=err, start_new_session=True)
+    """Run ``cmd``, send SIGTERM once ``ready(proc, its stderr and stdout so far)``; its exit
+    status, the stderr lines written after the signal, and its whole stderr."""
+    err_path, out_path = (tmp_path / f"{s}-{time.monotonic_ns()}" for s in ("stderr", "stdout"))
+    with open(err_path, "w") as err, open(out_path, "w") as out:
+        proc = subprocess.Popen(cmd, cwd=str(ROOT), stdout=out, stderr=err,
+                                env=dict(env or ray_env(), PYTHONUNBUFFERED="1"),
+                                start_new_session=True)
     try:
         deadline = time.monotonic() + timeout_s
-        while not ready(proc, err_path.read_text()):
+        while not ready(proc, err_path.read_text() + out_path.read_text()):
             assert proc.poll() is None, f"exited {proc.returncode}: {err_path.read_text()[-2000:]}"
             assert time.monotonic() < deadline, err_path.read_text()[-2000:]
             time.sleep(0.05)
@@ -154,6 +155,23 @@ def test_evaluate_sigterm_exits_130_in_one_line(small_dataset, tmp_path):
                                           tmp_path)
     assert status == 130 and after[-1:] == [INTERRUPTED], text[-3000:]
     assert not [line for line in after[:-1] if line.strip() and "epoch" not in line], text
+    clean(text)
+
+
+def test_experiment_sigterm_exits_130_in_one_line(small_dataset, tmp_path):
+    """SIGTERM once the experiment has planned the first of its three assemblies (on Ray, with
+    its pool of simulation actors)."""
+    import shutil
+
+    shapes = tmp_path / "assemblies"
+    shapes.mkdir()
+    for name in ("alpha", "beta", "gamma"):  # the synthetic dataset's names
+        shutil.copy(ASSEMBLIES / "hexagon.json", shapes / f"{name}.json")
+    cmd = cli("experiment", str(small_dataset), "--out", str(tmp_path / "report"),
+              "--assemblies", str(shapes), "--models", str(tmp_path / "models"), "--methods",
+              "sim", "--workers", "1")
+    status, after, text = sigterm_mid_run(cmd, lambda p, out: " R=" in out, tmp_path)
+    assert status == 130 and after == [INTERRUPTED], text[-3000:]
     clean(text)
 
 
