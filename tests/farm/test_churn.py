@@ -135,3 +135,19 @@ def test_a_plan_whose_simulations_lose_their_actors_still_gets_its_answer(ray_lo
     assert lost[0] == 5
     assert churned.status is calm.status is PlanStatus.FOUND
     assert churned.steps == calm.steps  # parts, directions and scores
+
+
+def test_the_progress_timeout_has_one_default():
+    """``label --progress-timeout``, ``LabelConfig`` and ``SimPool`` give up a lost batch after
+    the same time without progress (``rap.farm.faults.PROGRESS_TIMEOUT_S``)."""
+    import inspect
+
+    from rap.commands.label import label
+    from rap.farm.driver import LabelConfig
+    from rap.farm.faults import PROGRESS_TIMEOUT_S
+    from rap.farm.pool import SimPool
+
+    flag = inspect.signature(label).parameters["progress_timeout"].default.default
+    config = LabelConfig(assemblies=(), out="x").progress_timeout_s
+    pool = inspect.signature(SimPool).parameters["progress_timeout_s"].default
+    assert flag == config == pool == PROGRESS_TIMEOUT_S
