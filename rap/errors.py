@@ -21,7 +21,7 @@ EXIT_INFEASIBLE = 1  # no sequence / interlocked (plan)
 EXIT_INPUT = 2  # invalid input: one-line error, nothing written
 EXIT_FAILED = 3  # the work failed (labelling, workers, storage); committed work kept
 EXIT_INTERNAL = 4  # an internal error: a bug, never a user's mistake
-EXIT_INTERRUPTED = 130  # Ctrl-C: committed work kept
+EXIT_INTERRUPTED = 130  # Ctrl-C or SIGTERM (serve: 0, it drains): committed work kept
 
 
 class RapError(Exception):

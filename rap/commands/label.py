@@ -57,6 +57,11 @@ def label(
         help="Seconds until at least one simulation worker runs (a head without CPUs waits for "
              "a node: minutes on a cloud) before the run ends with exit status 3; also how long "
              "a run may go on with no worker left (all nodes lost)."),
+    progress_timeout: float = typer.Option(
+        600.0, "--progress-timeout", min=1.0,
+        help="Seconds without a completed batch after which a batch lost with its worker (node "
+             "lost, actor unreachable) is no longer resubmitted and its assembly fails; while "
+             "batches complete, lost ones are resubmitted whatever their number."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Label operations (simulated success rate + start/goal images) into a Parquet dataset."""
@@ -88,6 +93,7 @@ def label(
         trials=trials if trials is not None else p_trials, seed=seed,
         max_ops_per_assembly=max_ops_eff, directions_per_range=directions, mode=space,
         flush_rows=flush_rows, flush_seconds=flush_seconds, start_timeout_s=start_timeout,
+        progress_timeout_s=progress_timeout,
         progress=not quiet and sys.stderr.isatty(),
         command=" ".join(shlex.quote(a) for a in ["rap-farm", *sys.argv[1:]]))
     with flags(limit="--max-ops-per-assembly"):  # TooManyOperations: uncapped, too large

@@ -331,6 +331,7 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
     progress = progress or activity("", enabled=False)  # an Activity told what happens
     progress.update("starting simulation workers" + (", loading the model" * bool(model_path)))
     sim = LocalSimulator(processes=workers, prestart=True)
+    cache_obj = None
     try:
         cnn = _load_cnn(model_path) if model_path else None
         problem = PlanningProblem(asm, params, root_seed, space,
@@ -348,7 +349,8 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
                       on_progress=progress.scorer_progress, **(options or {}))
     finally:
         sim.close()
-    cache_obj.flush()
+        if cache_obj is not None:  # also when interrupted: a rerun starts from the scores found
+            cache_obj.flush()
     return result
 
 

@@ -56,7 +56,7 @@ from rap.errors import InputError
 
 from rap.farm.pool import IDLE_TIMEOUT_S, Job, SimPool
 from rap.labelling.rows import dataset_table
-from rap.farm.runtime import connect
+from rap.farm.runtime import connect, node_churn, nodes_now
 from rap.farm.prefetch import parallel_jobs
 from rap.labelling.selection import (HIST_BINS, LabelConfig, LabelPlan, LabelSummary, iter_jobs, prepare,
                                selects_in_tasks)
@@ -74,8 +74,10 @@ PRESETS: dict[str, tuple[int, int | None]] = {
 # -- running ------------------------------------------------------------------------------------
 @contextlib.contextmanager
 def _sigterm_as_interrupt() -> Iterator[None]:
-    """``ray job stop`` and schedulers send SIGTERM: treat it like Ctrl-C (commit, then stop)."""
-    if threading.current_thread() is not threading.main_thread():
+    """``ray job stop`` and schedulers send SIGTERM: treat it like Ctrl-C (commit, then stop).
+    A handler the caller installed (the CLI's, ``rap.cli.stop_on_sigterm``) is kept."""
+    if (threading.current_thread() is not threading.main_thread()
+            or callable(signal.getsignal(signal.SIGTERM))):
         yield
         return
 
@@ -197,9 +199,12 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
         # elastic: up to --workers actors (default: every CPU, growing as CPUs join), labelling as
         # soon as one runs; idle ones are released so an autoscaler can remove their nodes
         pool = SimPool(cfg.workers, backend=cfg.backend, batch_size=cfg.batch_size,
-                       idle_timeout_s=IDLE_TIMEOUT_S, stall_timeout_s=cfg.start_timeout_s)
+                       idle_timeout_s=IDLE_TIMEOUT_S, stall_timeout_s=cfg.start_timeout_s,
+                       progress_timeout_s=cfg.progress_timeout_s)
         summary.workers = pool.size
         progress = _progress(cfg.progress, plan.total)
+        nodes_before = nodes_now()
+        gens: list = []  # the generators of jobs and results, closed while Ray is up
         try:
             pool.ready(cfg.start_timeout_s, at_least=1)
             summary.startup_s = time.perf_counter() - t0
@@ -209,12 +214,14 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
                 skipped = lambda k: progress.advance(bar, k)  # noqa: E731
                 resize = lambda: progress.update(bar, total=summary.total)  # noqa: E731
                 if selects_in_tasks(cfg, len(plan.assemblies)):
-                    jobs = tracked(parallel_jobs(plan, summary, skipped,
-                                                 tasks=cfg.selection_tasks or rt.cpus,
-                                                 recounted=resize))
+                    gens.append(parallel_jobs(plan, summary, skipped,
+                                              tasks=cfg.selection_tasks or rt.cpus,
+                                              recounted=resize))
                 else:
-                    jobs = tracked(iter_jobs(plan, summary, skipped, resize))
-                for res in pool.stream(jobs, plan.params, images=True, errors="collect"):
+                    gens.append(iter_jobs(plan, summary, skipped, resize))
+                gens.append(tracked(gens[-1]))
+                gens.append(pool.stream(gens[-1], plan.params, images=True, errors="collect"))
+                for res in gens[-1]:
                     if res.error is not None:
                         summary.failed.setdefault(res.assembly, res.error)
                     table = fresh_rows(res.table, pending)
@@ -239,14 +246,26 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
             try:
                 flush()  # commit what has arrived, also when interrupted
             finally:
+                for g in reversed(gens):  # now, not when collected after Ray has gone
+                    _close(g)
                 summary.seconds = time.perf_counter() - t0
                 summary.workers = max(1, pool.stats["peak_workers"])
                 summary.resubmitted = pool.stats["resubmitted"]
+                summary.lost = pool.stats["lost"]
+                summary.redone_ops = pool.stats["redone_ops"]
+                summary.nodes_joined, summary.nodes_left = node_churn(nodes_before, nodes_now())
                 summary.sim_s = pool.stats["sim_s"]
                 summary.task_s = pool.stats["task_s"]
                 summary.peak_rss_mib = _peak_rss_mib()
                 pool.shutdown()
     return summary
+
+
+def _close(gen) -> None:
+    try:
+        gen.close()
+    except Exception:  # a generator's cleanup never hides the run's own outcome
+        pass
 
 
 def fresh_rows(table: pa.Table, pending: set[str]) -> pa.Table:
@@ -277,13 +296,16 @@ def format_summary(s: LabelSummary, no_limit: str = "no limit") -> str:
     lines = [
         f"dataset      {s.out}",
         f"operations   {s.total} selected, {s.existing} already present, {s.labelled} labelled now"
-        + (f", {s.duplicates} duplicate results dropped" if s.duplicates else "")
-        + (f", {s.resubmitted} batches resubmitted" if s.resubmitted else ""),
+        + (f", {s.duplicates} duplicate results dropped" if s.duplicates else ""),
         f"time         {s.seconds:.1f} s labelling (+{s.startup_s:.1f} s starting Ray), "
         f"{s.rate:.2f} ops/s with {s.workers} workers"
         + (f" ({s.sim_s / s.task_s:.0%} of worker time in the simulator)" if s.task_s > 0 else ""),
         f"shards       {s.shards}",
     ]
+    if s.resubmitted or s.nodes_joined or s.nodes_left:
+        lines.append(f"churn        {s.nodes_joined} nodes joined, {s.nodes_left} left; "
+                     f"{s.lost} batches lost with their workers, {s.resubmitted} batches "
+                     f"resubmitted ({s.redone_ops} operations redone)")
     if s.per_assembly:
         lines.append("assemblies   " + ", ".join(f"{k} {v}" for k, v in sorted(s.per_assembly.items())))
     if len(s.nodes) == 1:

@@ -15,6 +15,8 @@ from typing import Iterator
 
 import ray
 
+from rap.farm.runtime import init_ray
+
 __all__ = ["ray_folds"]
 
 
@@ -33,9 +35,9 @@ def ray_folds(specs: list[dict], num_cpus: int | None = None) -> Iterator[dict]:
     if not ray.is_initialized():
         address = os.environ.get("RAY_ADDRESS")
         if address:
-            ray.init(address=address, log_to_driver=False)
+            init_ray(address=address, log_to_driver=False)
         else:
-            ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False,
+            init_ray(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False,
                      log_to_driver=False)
         started = True
     try:

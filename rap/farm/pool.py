@@ -34,19 +34,20 @@ from __future__ import annotations
 
 import math
 import time
-from collections import deque
 from dataclasses import dataclass
 from typing import Any, Iterable, Iterator, Sequence
 
 import ray
-from ray.exceptions import RayTaskError
+from ray.exceptions import RayError, RayTaskError
 
 from rap.assembly import Assembly
 from rap.enumerate import label_key, label_seed
 from rap.operation import Operation
 
 from rap.farm.actors import Backend, BatchResult, SimTask
-from rap.farm.workers import IDLE_TIMEOUT_S, LOST, WAKE_S, FarmError, WorkerSet
+from rap.farm.faults import (BACKOFF_S, MAX_ATTEMPTS, PROGRESS_TIMEOUT_S, Tries, backoff_s,
+                             cause_line, is_lost)
+from rap.farm.workers import IDLE_TIMEOUT_S, WAKE_S, FarmError, WorkerSet
 from rap.labelling.rows import params_json, rows_table
 from rap.labelling.selection import Job
 
@@ -77,7 +78,9 @@ class SimPool(WorkerSet):
     Parameters: ``workers`` (the most actors to ask for; None: one per CPU of the cluster, growing
     with it), ``backend`` (simulator/renderer import paths), ``batch_size`` (None: adaptive),
     ``target_task_s``, ``max_batch``, ``per_worker_in_flight``, ``max_attempts`` (submissions of
-    one batch by the pool), ``max_restarts``/``max_task_retries`` (Ray's own actor fault
+    a batch whose simulation raises), ``progress_timeout_s`` (a batch lost with its worker is
+    resubmitted, after ``backoff_s`` doubling, until no batch has completed for that long; None:
+    for ever; ``rap.farm.faults``), ``max_restarts``/``max_task_retries`` (Ray's own actor fault
     tolerance), ``cpus_per_worker``, ``idle_timeout_s`` (None: never release actors),
     ``stall_timeout_s`` (None: wait for ever; else ``FarmError`` when work has been queued that
     long with no started actor to take it).
@@ -85,7 +88,9 @@ class SimPool(WorkerSet):
 
     def __init__(self, workers: int | None = None, *, backend: Backend = Backend(),
                  batch_size: int | None = None, target_task_s: float = 1.0, max_batch: int = 128,
-                 per_worker_in_flight: int = 2, max_attempts: int = 4, max_restarts: int = 8,
+                 per_worker_in_flight: int = 2, max_attempts: int = MAX_ATTEMPTS,
+                 progress_timeout_s: float | None = PROGRESS_TIMEOUT_S,
+                 backoff_s: float = BACKOFF_S, max_restarts: int = 8,
                  max_task_retries: int = 0, cpus_per_worker: float = 1.0,
                  idle_timeout_s: float | None = None, stall_timeout_s: float | None = None):
         if batch_size is not None and batch_size < 1:
@@ -95,6 +100,8 @@ class SimPool(WorkerSet):
         self.max_batch = int(max_batch)
         self.per_worker_in_flight = max(1, int(per_worker_in_flight))
         self.max_attempts = max(1, int(max_attempts))
+        self.progress_timeout_s = progress_timeout_s
+        self.backoff_s = float(backoff_s)
         self._next_task = 0
         self._per_op_s: float | None = None  # moving average of task seconds per operation
         super().__init__(workers, backend=backend, max_restarts=max_restarts,
@@ -138,10 +145,12 @@ class SimPool(WorkerSet):
         """Label ``jobs`` and yield each completed batch (completion order).
 
         ``total`` (the number of jobs, when known) balances the last wave. Consecutive jobs of the
-        same assembly share a task. A batch that fails in the simulator or is lost more than
-        ``max_attempts`` times raises ``FarmError`` (``errors="raise"``) or is yielded as a
-        ``BatchResult`` with no rows and ``error`` set, the stream going on (``errors="collect"``).
-        Closing the generator cancels what is in flight.
+        same assembly share a task. A batch lost with its worker is resubmitted while the pool
+        makes progress; one whose simulation fails ``max_attempts`` times, or that is lost after
+        no batch has completed for ``progress_timeout_s`` (``rap.farm.faults``), raises
+        ``FarmError`` (``errors="raise"``) or is yielded as a ``BatchResult`` with no rows and
+        ``error`` set, the stream going on (``errors="collect"``). Closing the generator cancels
+        what is in flight.
         """
         if errors not in ("raise", "collect"):
             raise ValueError("errors must be 'raise' or 'collect'")
@@ -152,10 +161,11 @@ class SimPool(WorkerSet):
         head: list[Job] = []  # one look-ahead job that belongs to the next batch
         exhausted = False
         submitted = 0
-        in_flight: dict[Any, tuple[SimTask, int, int]] = {}
-        retry: deque[tuple[SimTask, int, int | None]] = deque()  # (task, attempt, actor to avoid)
+        in_flight: dict[Any, tuple[Tries, int]] = {}  # ref -> (the batch, its actor)
+        retry: list[Tries] = []  # batches to send again (each when its backoff is over)
         idle_since: float | None = None  # since when work has waited with no started actor
         demand = [False]  # whether this call counts among the pool's callers with work queued
+        began = time.monotonic()
 
         def next_task() -> SimTask | None:
             nonlocal exhausted, submitted
@@ -186,14 +196,11 @@ class SimPool(WorkerSet):
                            keys=tuple(j.key for j in batch), seeds=tuple(j.seed for j in batch),
                            params=params, params_json=pjson, images=images)
 
-        def lost(task: SimTask, attempt: int, exc: BaseException) -> str | None:
-            """Requeue a lost batch; the error message when it has been lost too often."""
-            if attempt >= self.max_attempts:
-                return (f"a batch of {task.assembly_name} was lost {attempt} times "
-                        f"({type(exc).__name__})")
-            with self._lock:
-                self.stats["resubmitted"] += 1
-            retry.append((task, attempt + 1, None))
+        def due() -> Tries | None:
+            now = time.monotonic()
+            for i, t in enumerate(retry):
+                if t.not_before <= now:
+                    return retry.pop(i)
             return None
 
         try:
@@ -204,57 +211,52 @@ class SimPool(WorkerSet):
                 if fresh or retry:
                     self._demand(fresh, bool(retry))
                 cap = self._started * self.per_worker_in_flight
-                while len(in_flight) < cap and (retry or head or not exhausted):
-                    if retry:
-                        task, attempt, avoid = retry.popleft()
-                    else:
-                        task, attempt, avoid = next_task(), 1, None
+                while len(in_flight) < cap:
+                    t = due()
+                    if t is None:
+                        task = next_task() if head or not exhausted else None
                         if task is None:
                             break
-                    sent = self._submit(task, avoid)
+                        t = Tries(task)
+                    sent = self._submit(t.task, t.avoid)
                     if sent is None:  # the actors went away meanwhile
-                        retry.appendleft((task, attempt, avoid))
+                        retry.insert(0, t)
                         break
-                    in_flight[sent[0]] = (task, sent[1], attempt)
+                    in_flight[sent[0]] = (t, sent[1])
                 if not in_flight:
                     if not retry and not head and exhausted:
                         return
                     now = time.monotonic()
-                    idle_since = idle_since or now
-                    if self.stall_timeout_s is not None and now - idle_since > self.stall_timeout_s:
+                    idle_since = None if self._started else (idle_since or now)
+                    if (idle_since is not None and self.stall_timeout_s is not None
+                            and now - idle_since > self.stall_timeout_s):
                         raise FarmError(f"no simulation worker has been running for "
                                         f"{self.stall_timeout_s:.0f} s (lost nodes, or no free "
                                         f"CPUs on the cluster)")
-                    self._poll(WAKE_S)
+                    wait, t0 = self._wake(retry), time.monotonic()
+                    if not self._poll(wait):  # nothing started: wait out the backoff's rest
+                        time.sleep(max(0.0, wait - (time.monotonic() - t0)))
                     continue
                 idle_since = None
                 probes = list(self._probes())
-                done, _ = ray.wait(list(in_flight) + probes, num_returns=1, timeout=WAKE_S)
+                done, _ = ray.wait(list(in_flight) + probes, num_returns=1,
+                                   timeout=self._wake(retry))
                 for ref in done:
                     if ref not in in_flight:  # an actor answered its probe: _poll takes it in
                         continue
-                    task, k, attempt = in_flight.pop(ref)
+                    t, k = in_flight.pop(ref)
                     self._release(k)
                     try:
-                        res: BatchResult = ray.get(ref)
-                    except RayTaskError as exc:  # the simulator raised: deterministic, do not retry
-                        cause = str(exc.cause if getattr(exc, "cause", None) else exc).splitlines()
-                        msg = (f"simulation of a batch of {task.assembly_name} failed: "
-                               f"{cause[-1] if cause else type(exc).__name__}")
-                        if errors == "raise":
-                            raise FarmError(msg) from exc
-                        yield self._failed(task, msg)
-                        continue
-                    except LOST as exc:
-                        self._lost(k)
-                        msg = lost(task, attempt, exc)
+                        res: BatchResult = self._fetch(ref)
+                    except RayError as exc:
+                        msg = self._again(t, k, exc, retry, began)
                         if msg is None:
                             continue
                         if errors == "raise":
                             raise FarmError(msg) from exc
-                        yield self._failed(task, msg)
+                        yield self._failed(t.task, msg)
                         continue
-                    res.attempts = attempt
+                    res.attempts = t.submissions
                     self._account(res)
                     yield res
         finally:
@@ -264,8 +266,46 @@ class SimPool(WorkerSet):
                     ray.cancel(ref)
                 except Exception:
                     pass
-            for _, k, _ in in_flight.values():
+            for _, k in in_flight.values():
                 self._release(k)
+
+    def _again(self, t: Tries, k: int, exc: BaseException, retry: list[Tries],
+               began: float) -> str | None:
+        """Batch ``t`` came back from actor ``k`` with ``exc``: queue it again (None) or say why
+        not (one line). Lost and failing batches: ``rap.farm.faults``."""
+        now = time.monotonic()
+        name = t.task.assembly_name
+        if is_lost(exc):
+            self._lost(k)
+            t.losses += 1
+            with self._lock:
+                self.stats["lost"] += 1
+                quiet = now - max(self._progress_at, began)
+            if self.progress_timeout_s is not None and quiet >= self.progress_timeout_s:
+                return (f"a batch of {name} was lost {t.losses} times ({type(exc).__name__}) and "
+                        f"no batch has completed for {self.progress_timeout_s:g} s")
+            t.not_before = now + backoff_s(t.losses, self.backoff_s)
+        elif isinstance(exc, RayTaskError):  # the simulator raised
+            t.failures += 1
+            if t.failures >= self.max_attempts:
+                return f"simulation of a batch of {name} failed: {cause_line(exc)}"
+            with self._lock:
+                self.stats["retried"] += 1
+        else:
+            raise exc
+        with self._lock:
+            self.stats["resubmitted"] += 1
+            self.stats["redone_ops"] += len(t.task.keys)
+        t.avoid = k
+        retry.append(t)
+        return None
+
+    @staticmethod
+    def _wake(retry: list[Tries]) -> float:
+        """How long the stream may wait: ``WAKE_S``, less when a backoff ends sooner."""
+        now = time.monotonic()
+        ends = [t.not_before - now for t in retry if t.not_before > now]
+        return min([WAKE_S, *ends])
 
     @staticmethod
     def _failed(task: SimTask, msg: str) -> BatchResult:
@@ -281,6 +321,7 @@ class SimPool(WorkerSet):
             s["sim_s"] += res.sim_s
             s["render_s"] += res.render_s
             s["task_s"] += res.task_s
+            self._progress_at = time.monotonic()
             self._per_op_s = per if self._per_op_s is None else 0.7 * self._per_op_s + 0.3 * per
 
     def score(self, assembly: Assembly, operations: Sequence[Operation], params: Any,

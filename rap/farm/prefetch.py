@@ -97,9 +97,12 @@ def parallel_jobs(plan: LabelPlan, summary: LabelSummary, skipped: Callable[[int
                     if name in summary.failed:  # failed while simulating: drop the rest
                         break
                     yield Job(assembly, op, key, seed)
-    finally:
+    finally:  # also when closed after Ray has gone (then there is nothing left to cancel)
         for gen in running:
-            ray.cancel(gen)
+            try:
+                ray.cancel(gen)
+            except Exception:
+                pass
 
 
 def _portable(plan: LabelPlan) -> LabelPlan:

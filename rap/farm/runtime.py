@@ -18,7 +18,9 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
 import socket
+import threading
 from dataclasses import dataclass
 from typing import Iterator
 
@@ -26,7 +28,7 @@ import ray
 
 from rap.errors import InputError
 
-__all__ = ["RayRuntime", "connect", "node_label", "cluster_cpus"]
+__all__ = ["RayRuntime", "connect", "init_ray", "node_label", "cluster_cpus", "nodes_now", "node_churn"]
 
 # Ray's notice, at every local start, that it turned token authentication on by default stays off
 # the user's console (the module doc and docs/CLUSTER.md say so); its other warnings stay.
@@ -49,6 +51,23 @@ def cluster_cpus() -> int:
     return max(1, int(ray.cluster_resources().get("CPU", 1)))
 
 
+def nodes_now() -> dict[str, bool]:
+    """Every node the cluster's GCS knows, dead ones included: node id -> alive ({} when the GCS
+    does not answer)."""
+    try:
+        return {n["NodeID"]: bool(n.get("Alive")) for n in ray.nodes()}
+    except Exception:
+        return {}
+
+
+def node_churn(before: dict[str, bool], after: dict[str, bool]) -> tuple[int, int]:
+    """``(joined, left)`` between two ``nodes_now()``: nodes unknown before, and nodes alive before
+    (or joined since) that are dead now. The GCS keeps the last 1,000 dead nodes by default."""
+    joined = sum(1 for n in after if n not in before)
+    left = sum(1 for n, alive in after.items() if not alive and before.get(n, True))
+    return joined, left
+
+
 def node_label() -> str:
     """Which node this process runs on: ``hostname/<Ray node id>``, the whole hex id, which is
     unique per node of a cluster (a prefix is not: Ray's fake multi-node provider, for one, numbers
@@ -59,6 +78,21 @@ def node_label() -> str:
         nid = ""
     host = socket.gethostname()
     return f"{host}/{nid}" if nid else host
+
+
+def init_ray(**kwargs) -> None:
+    """``ray.init(**kwargs)``, keeping the SIGTERM handler this process chose. ``ray.init``
+    replaces it with its own (``sys.exit(15)``: a command stopped by SIGTERM would exit 15, not
+    130, past our cleanup) and Ray's core worker adds a handler that prints a C++ stack dump
+    ("*** SIGTERM received at time=..."); a Python handler set before (the CLI's: SIGTERM as
+    Ctrl-C) is put back. Without one, Ray's handlers stay."""
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(signal.SIGTERM) if main else None
+    try:
+        ray.init(**kwargs)
+    finally:
+        if callable(before):
+            signal.signal(signal.SIGTERM, before)
 
 
 @contextlib.contextmanager
@@ -77,9 +111,9 @@ def connect(address: str | None = None, num_cpus: int | None = None,
     kwargs = dict(log_to_driver=log_to_driver, configure_logging=True, logging_level="WARNING")
     try:
         if address:
-            ray.init(address=address, **kwargs)
+            init_ray(address=address, **kwargs)
         else:
-            ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False, **kwargs)
+            init_ray(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False, **kwargs)
     except (ConnectionError, ValueError, RuntimeError, TimeoutError) as exc:
         where = address or "a local Ray instance"
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

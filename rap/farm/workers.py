@@ -17,12 +17,12 @@
   the autoscaler can remove its node after its own ``idle_timeout_minutes``; the pool grows again
   when work comes. Without it (the planning service) the actors stay warm until ``shutdown``.
 * **Survive lost nodes** (spot preemption). ``max_task_retries=0``: a task whose actor or node
-  dies fails at once, and the pool resubmits its batch to another started actor (at most
-  ``max_attempts`` submissions) instead of letting Ray hold it until the actor has restarted on a
-  node that may take minutes to come; the actor itself restarts (``max_restarts``) and rejoins when
-  it answers a probe again, and one dead for good is replaced while fresh work is queued. A result
-  never arrives twice for one submission, and the driver de-duplicates by key, so a run loses and
-  duplicates no row.
+  dies fails at once, and the pool resubmits its batch to another started actor (with backoff, for
+  as long as the pool makes progress: ``rap.farm.faults``) instead of letting Ray hold it until
+  the actor has restarted on a node that may take minutes to come; the actor itself restarts
+  (``max_restarts``) and rejoins when it answers a probe again, and one dead for good is replaced
+  while fresh work is queued. A result never arrives twice for one submission, and the driver
+  de-duplicates by key, so a run loses and duplicates no row.
 
 Why not Ray Data's autoscaling actor pool (``map_batches`` with ``ActorPoolStrategy(min_size,
 max_size)``), which does the same growing and shrinking: the planning service needs a warm pool
@@ -42,21 +42,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import ray
-from ray.exceptions import (ActorDiedError, ActorUnavailableError, NodeDiedError, ObjectLostError,
-                            OwnerDiedError, RayActorError, WorkerCrashedError)
+from ray.exceptions import ActorDiedError
 
 from rap.errors import WorkFailedError
 
 from rap.farm.actors import Backend, SimTask, SimWorker
+from rap.farm.faults import LOST
 from rap.farm.runtime import cluster_cpus
 
 __all__ = ["WorkerSet", "FarmError", "IDLE_TIMEOUT_S", "LOST", "WAKE_S"]
 
 _REMOTE_WORKER = ray.remote(SimWorker)
-
-# a task's actor or node went away (its batch is resubmitted; never the simulator's own error)
-LOST = (RayActorError, ActorDiedError, ActorUnavailableError, WorkerCrashedError, NodeDiedError,
-        ObjectLostError, OwnerDiedError)
 
 IDLE_TIMEOUT_S = 60.0  # label's idle_timeout_s (then the autoscaler waits its own idle timeout)
 WAKE_S = 1.0  # the stream's longest wait before it looks at probes, growth and stalls again
@@ -66,8 +62,6 @@ _PROBE_FAILURES = 50  # failed probes (restarting, unreachable) before an actor 
 
 class FarmError(WorkFailedError):
     """A batch that could not be labelled, or no worker to label it (exit status 3)."""
-
-
 
 
 @dataclass
@@ -113,9 +107,10 @@ class WorkerSet:
         self._demanding = 0  # callers (streams, ready) that have work queued now
         self._followed = 0.0  # workers=None: when the free CPUs were last read
         self._last_death = ""  # why the last actor died for good (for the error of a dead pool)
-        self.stats = {"tasks": 0, "resubmitted": 0, "replaced": 0, "ops": 0, "sim_s": 0.0,
-                      "render_s": 0.0, "task_s": 0.0, "actors": 0, "retired": 0,
-                      "peak_workers": 0}
+        self.stats = {"tasks": 0, "resubmitted": 0, "lost": 0, "retried": 0, "redone_ops": 0,
+                      "replaced": 0, "ops": 0, "sim_s": 0.0, "render_s": 0.0, "task_s": 0.0,
+                      "actors": 0, "retired": 0, "peak_workers": 0}
+        self._progress_at = time.monotonic()  # when a batch of this pool last completed
         per_cpu = max(self.cpus_per_worker, 1e-9)
         self._grow(self.max_workers or max(1, int(cluster_cpus() // per_cpu)))
         self._start_reaper()
@@ -175,7 +170,7 @@ class WorkerSet:
         return self._started
 
     @property
-    def _load(self) -> list[int]:
+    def _load(self) -> list[int]:  # tests
         with self._lock:
             return [a.load for a in self._actors.values()]
 
@@ -256,10 +251,9 @@ class WorkerSet:
 
     @staticmethod
     def _kill(handle) -> None:
-        if not ray.is_initialized():  # never start a Ray just to kill an actor of a gone one
-            return
-        try:
-            ray.kill(handle, no_restart=True)
+        try:  # never start a Ray just to kill an actor of a gone one
+            if ray.is_initialized():
+                ray.kill(handle, no_restart=True)
         except Exception:
             pass
 
@@ -347,6 +341,11 @@ class WorkerSet:
             self.stats["tasks"] += 1
         return a.handle.run.remote(task), k
 
+    def _fetch(self, ref):
+        """A task's result (``ray.get``): the one place it is fetched, the test seam of
+        ``rap.farm.faults``."""
+        return ray.get(ref)
+
     def _release(self, k: int) -> None:
         with self._lock:
             a = self._actors.get(k)
@@ -395,6 +394,6 @@ class WorkerSet:
     def __setstate__(self, d):
         self.__dict__.update(d)
         self._lock = threading.Lock()
-        self._last_demand = time.monotonic()
+        self._last_demand = self._progress_at = time.monotonic()  # this process's clock
         self._start_reaper()
 

@@ -73,6 +73,8 @@ class LabelConfig:
     batch_size: int | None = None
     num_cpus: int | None = None  # embedded Ray only: CPUs to start it with (default: all)
     start_timeout_s: float = 120.0  # simulation workers must start within this (FarmError)
+    progress_timeout_s: float = 600.0  # a batch lost with its worker is given up once no batch
+    # has completed for this long (rap.farm.faults.PROGRESS_TIMEOUT_S)
     backend: Backend = Backend()
     selection_tasks: int | None = None  # assemblies selected at once in Ray tasks (None: one per
     # CPU of the cluster; 0: in the driver's thread, assembly after assembly): rap.farm.prefetch
@@ -135,7 +137,11 @@ class LabelSummary:
     nodes: dict[str, int] = field(default_factory=dict)
     per_assembly: dict[str, int] = field(default_factory=dict)
     hist: list[int] = field(default_factory=lambda: [0] * HIST_BINS)
-    resubmitted: int = 0
+    resubmitted: int = 0  # batches sent again (lost with their workers, or failed and retried)
+    lost: int = 0  # batches lost with their workers (actor, node)
+    redone_ops: int = 0  # operations sent again (work redone)
+    nodes_joined: int = 0  # nodes of the cluster that joined while the run ran
+    nodes_left: int = 0  # nodes that left (died, removed) while the run ran
     failed: dict[str, str] = field(default_factory=dict)  # assembly name -> what went wrong
     first_shard_s: float | None = None  # from the start of prepare() to the first commit
     peak_rss_mib: float = 0.0  # the driver process's peak resident memory

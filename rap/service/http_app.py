@@ -90,9 +90,11 @@ from rap.plan.scoring.scorer import Budget
 from rap.service.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
                           BadRequest, ServeConfig, parse_plan_request, read_upload)
 
-__all__ = ["PlanningApp", "build_app", "inspect_document", "APP_NAME", "STATIC_DIR"]
+__all__ = ["PlanningApp", "build_app", "inspect_document", "APP_NAME", "STATIC_DIR",
+           "STOP_GRACE_S"]
 
 APP_NAME = "rap-farm"
+STOP_GRACE_S = 30.0  # on stop (SIGTERM, Ctrl-C), requests in flight get this long to finish
 _log = logging.getLogger("rap.service.http_app")
 
 
@@ -355,5 +357,6 @@ class PlanningApp:
 
 def build_app(config: ServeConfig):
     """The Serve application (``PlanningApp`` bound to ``config``)."""
-    return PlanningApp.options(max_ongoing_requests=config.max_concurrent + 16).bind(
+    return PlanningApp.options(max_ongoing_requests=config.max_concurrent + 16,
+                               graceful_shutdown_timeout_s=STOP_GRACE_S).bind(
         {**asdict(config)})

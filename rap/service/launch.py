@@ -62,7 +62,9 @@ def run_service(config: ServeConfig, *, address: str | None = None,
                 echo: Callable[[str], None] = print, ready_timeout_s: float = 600.0,
                 stop: threading.Event | None = None) -> None:
     """Start (or join) Ray, deploy the service, print where it listens and serve until SIGINT or
-    SIGTERM (or ``stop`` is set); then remove it (and stop the embedded Ray, if started here)."""
+    SIGTERM (or ``stop`` is set); then remove it, which stops taking requests and gives those in
+    flight ``rap.farm.serve.STOP_GRACE_S`` (30 s) to finish (and stop the embedded Ray, if
+    started here)."""
     from rap.farm.runtime import connect
 
     config.check()
@@ -72,9 +74,14 @@ def run_service(config: ServeConfig, *, address: str | None = None,
     logging.getLogger("ray.serve").setLevel(logging.WARNING)  # our own line says where it runs
     stop = stop or threading.Event()
     previous = {}
-    if threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            previous[sig] = signal.signal(sig, lambda *_: stop.set())
+
+    def listen() -> None:  # again after Serve has started: Ray's own SIGTERM handler is off
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                old = signal.signal(sig, lambda *_: stop.set())
+                previous.setdefault(sig, old)
+
+    listen()
     try:
         with connect(address) as rt:
             quiet = {"log_level": "WARNING", "enable_access_log": False}
@@ -83,6 +90,7 @@ def run_service(config: ServeConfig, *, address: str | None = None,
                             http_options={"host": config.host, "port": config.port})
                 serve.run(build_app(config), name=APP_NAME, route_prefix="/", blocking=False,
                           logging_config=quiet)
+                listen()
             except Exception as exc:
                 first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
                 raise InputError(f"cannot start the planning service: {first[:300]}") from None

@@ -63,7 +63,7 @@ def free_port() -> int:
 
 
 def _config(gcs: str, max_workers: int, min_workers: int, head_cpus: int, worker_cpus: int,
-            idle_timeout_minutes: float) -> str:
+            idle_timeout_minutes: float, node_updaters: bool = False) -> str:
     """The autoscaling config (YAML is a superset of JSON; the launcher's fields are all given)."""
     import json
 
@@ -73,7 +73,8 @@ def _config(gcs: str, max_workers: int, min_workers: int, head_cpus: int, worker
         "upscaling_speed": 1.0,
         "idle_timeout_minutes": idle_timeout_minutes,
         "provider": {"type": "fake_multinode", "gcs_address": gcs, "use_node_id_as_ip": True,
-                     "disable_node_updaters": True, "disable_launch_config_check": True},
+                     "disable_node_updaters": not node_updaters,
+                     "disable_launch_config_check": True},
         "available_node_types": {
             "ray.head.default": {"resources": {"CPU": head_cpus}, "node_config": {},
                                  "max_workers": 0},
@@ -118,13 +119,17 @@ def _cmdline(pid: int | str) -> list[str]:
 
 class FakeCluster:
     """See the module docstring. ``min_workers``: worker nodes the autoscaler keeps (started at
-    once); ``gate_nodes``/``pause_s`` configure ``GATED`` on its workers."""
+    once); ``gate_nodes``/``pause_s`` configure ``GATED`` on its workers; ``node_updaters``:
+    leave the provider's node updaters on, so that the autoscaler marks launches as failed and
+    replaces their nodes again and again (churn, as on a troubled spot cluster)."""
 
     def __init__(self, max_workers: int = 3, *, min_workers: int = 0, head_cpus: int = 1,
                  worker_cpus: int = 1,
                  idle_timeout_minutes: float = 0.1, dashboard: bool = False,
-                 gate_nodes: int = 0, pause_s: float = 0.0, env: dict | None = None):
+                 gate_nodes: int = 0, pause_s: float = 0.0, env: dict | None = None,
+                 node_updaters: bool = False):
         self.max_workers, self.min_workers = max_workers, min_workers
+        self.node_updaters = node_updaters
         self.head_cpus, self.worker_cpus = head_cpus, worker_cpus
         self.idle_timeout_minutes = idle_timeout_minutes
         self.dashboard = dashboard
@@ -154,7 +159,8 @@ class FakeCluster:
     def start(self, timeout_s: float = 120.0) -> "FakeCluster":
         cfg = self.tmp / "autoscaling.yaml"
         cfg.write_text(_config(self.address, self.max_workers, self.min_workers, self.head_cpus,
-                               self.worker_cpus, self.idle_timeout_minutes))
+                               self.worker_cpus, self.idle_timeout_minutes,
+                               self.node_updaters))
         cmd = [RAY, "start", "--head", f"--autoscaling-config={cfg}", "--port", str(self.port),
                "--node-ip-address", "127.0.0.1", "--num-cpus", str(self.head_cpus),
                "--temp-dir", str(self.tmp / "ray"), "--disable-usage-stats", "--block",

@@ -8,11 +8,15 @@
 * ``simulate(assembly, op, params, rng)``: a fast deterministic fake of ``rap.sim.simulator.simulate``
   that sleeps ``params.time_limit_s`` milliseconds per operation (8 ms by default; ``slow_params``
   makes it 60 ms, so that a test can kill things mid-run in any process).
+* ``held_simulate``: ``simulate``, except that a worker's third and later operations wait while the
+  file named by ``RAP_TEST_HOLD`` exists: a run is held mid-run, with rows committed, until the
+  test removes the file (tests/farm/test_sigterm.py).
 """
 
 from __future__ import annotations
 
 import hashlib
+import os
 import time
 from dataclasses import dataclass
 
@@ -66,6 +70,18 @@ def simulate(assembly, op, params, rng):
     p = 0.5 + 0.4 * op.direction[0]
     succ = int(rng.binomial(params.trials, min(max(p, 0.0), 1.0)))
     return FakeResult(succ, params.trials, succ / params.trials, time.perf_counter() - t)
+
+
+_SIMULATED = [0]  # operations simulated by this process (a worker)
+
+
+def held_simulate(assembly, op, params, rng):
+    """``simulate``, held after a worker's second operation while ``$RAP_TEST_HOLD`` exists."""
+    _SIMULATED[0] += 1
+    hold = os.environ.get("RAP_TEST_HOLD", "")
+    while _SIMULATED[0] > 2 and hold and os.path.exists(hold):
+        time.sleep(0.05)
+    return simulate(assembly, op, params, rng)
 
 
 def slow_params(trials: int = 100):

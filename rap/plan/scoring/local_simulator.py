@@ -66,12 +66,15 @@ def _simulate_task(args) -> CachedScore:  # runs in a worker process
 
 
 def _worker_init(warmed=None) -> None:
-    """Worker processes leave Ctrl-C to the parent, which stops them (no traceback per worker);
-    with a shared counter ``warmed``, load the compiled simulator now rather than at the first
-    operation (at a lower priority), then count this worker as warm."""
+    """Worker processes leave Ctrl-C to the parent, which stops them (no traceback per worker),
+    and end quietly on SIGTERM (the parent's ``close``, or a signal to the whole process group):
+    the handler forked from the CLI (SIGTERM as Ctrl-C) is not theirs; with a shared counter
+    ``warmed``, load the compiled simulator now rather than at the first operation (at a lower
+    priority), then count this worker as warm."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if warmed is not None:
         import os
 
