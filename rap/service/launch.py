@@ -63,7 +63,7 @@ def run_service(config: ServeConfig, *, address: str | None = None,
                 stop: threading.Event | None = None) -> None:
     """Start (or join) Ray, deploy the service, print where it listens and serve until SIGINT or
     SIGTERM (or ``stop`` is set); then remove it, which stops taking requests and gives those in
-    flight ``rap.farm.serve.STOP_GRACE_S`` (30 s) to finish (and stop the embedded Ray, if
+    flight ``rap.service.http_app.STOP_GRACE_S`` (30 s) to finish (and stop the embedded Ray, if
     started here)."""
     from rap.farm.runtime import connect
 
