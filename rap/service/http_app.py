@@ -13,8 +13,10 @@ offline):
 * ``GET /``: the planning page (``rap/service/static``: plain HTML, CSS and JS, no build step, no
   other host): choose or drop a drawing or assembly file, see its parts and NDBG circle, plan with
   a method, a seed and optionally the robot cell's constraints through ``POST /plan``, step
-  through the plan as a storyboard, download the plan JSON and the storyboard (PNG or SVG). Its
-  requests carry the token typed in the page.
+  through the plan as a storyboard, download the plan JSON and the storyboard (PNG or SVG), or
+  try a shipped example with one click. Its requests carry the token typed in the page.
+* ``GET /examples``: ``[{"name", "parts"}]``, the example assemblies shipped in the package;
+  ``GET /examples/{name}``: one's assembly JSON, 404 for another name (``rap.service.examples``).
 * ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
   actor has started (before that, Serve answers 503 or the connection is refused).
 * ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
@@ -53,7 +55,7 @@ The request contract (``ServeConfig``, ``parse_plan_request``) lives in ``rap.se
 imports neither ray nor fastapi.
 
 Running it: ``rap.service.launch.run_service``. Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
-with a token every endpoint but the documentation and the page's static files needs
+with a token every endpoint but the documentation, the page's static files and the examples needs
 ``Authorization: Bearer <token>`` (the page sends it on each of its requests). The token
 travels in clear text over plain HTTP: beyond one machine, put the service behind TLS (a reverse
 proxy) or on a private network, as docs/CLUSTER.md says.
@@ -89,6 +91,7 @@ from rap.plan.scoring.scorer import Budget
 
 from rap.service.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
                           BadRequest, ServeConfig, parse_plan_request, read_upload)
+from rap.service.examples import UnknownExample, example, example_list
 
 __all__ = ["PlanningApp", "build_app", "inspect_document", "APP_NAME", "STATIC_DIR",
            "STOP_GRACE_S"]
@@ -115,7 +118,7 @@ api = FastAPIOffline(
                 "POST an assembly to /plan; the answer is the document `rap-farm plan --out` "
                 "writes. POST a drawing (DXF, SVG) or an assembly file to /import or /inspect. "
                 "Errors are `{\"error\": \"one line\"}` with a 4xx/5xx status. The planning "
-                "page is at /.",
+                "page is at /, the example assemblies shipped in the package at /examples.",
     static_url="/static/swagger",
     swagger_ui_parameters={"validatorUrl": None},  # no badge fetched from swagger.io
 )
@@ -127,6 +130,22 @@ _bearer = HTTPBearer(auto_error=False, description="Needed when the service was 
 async def page():
     """The planning page (rap/service/static): upload, NDBG circle, plan, storyboard."""
     return FileResponse(STATIC_DIR / "index.html")
+
+
+# the examples are public, as the page is: the package's own data, no token (sync: read on a thread)
+@api.get("/examples", summary="The example assemblies shipped in the package")
+def list_examples():
+    """``[{"name", "parts"}]`` sorted by name: what the page offers to try with one click."""
+    return example_list()
+
+
+@api.get("/examples/{name}", summary="A shipped example's assembly JSON")
+def get_example(name: str):
+    """The example's assembly JSON, as ``/import`` answers for its file; 404 for another name."""
+    try:
+        return JSONResponse(example(name))
+    except UnknownExample as exc:
+        return _error(404, str(exc))
 
 
 def inspect_document(assembly: Assembly) -> dict:

@@ -27,7 +27,7 @@ import pytest
 
 from rap.assembly import assembly_to_json
 from rap.io import load_assembly
-from rap.plan.report.result import PlanResult
+from rap.plan.report.result import PlanResult, PlanStep
 from rap.plan.report.validate import check_plan
 
 from tests.farm.conftest import ASSEMBLIES, ROOT
@@ -170,6 +170,26 @@ def test_uploads_need_the_token_and_the_page_does_not(service):
         _get(service + path)  # 200 without a token, as the documentation always was
     spec = json.loads(_get(service + "/openapi.json"))
     assert {"/plan", "/health", "/import", "/inspect"} <= set(spec["paths"])
+
+
+def test_the_examples_are_public_and_only_the_shipped_ones(service):
+    """GET /examples and /examples/NAME answer without a token (the package's own data, as the
+    page); any other name is a 404 and one line."""
+    from rap.service.examples import EXAMPLES_DIR, example_list
+
+    assert _call(service, "/examples", token=None)[:2] == (200, example_list())
+    status, doc, headers = _call(service, "/examples/hexagon", token=None)
+    assert status == 200 and headers["content-type"] == "application/json"
+    assert doc == json.loads(json.dumps(assembly_to_json(load_assembly(EXAMPLES_DIR /
+                                                                       "hexagon.json"))))
+    for path in ("/examples/nope", "/examples/hexagon.json", "/examples/..%2Fhexagon",
+                 "/examples/" + "x" * 2000, "/examples/hexagon/x"):
+        status, doc, _ = _call(service, path, token=None)
+        assert status == 404 and list(doc) == ["error"] and "\n" not in doc["error"], (path, doc)
+    assert _call(service, "/examples/nope")[1]["error"].startswith("no example 'nope'; the "
+                                                                  "examples are grid, hexagon")
+    assert {"/examples", "/examples/{name}"} <= set(json.loads(_get(service + "/openapi.json"))
+                                                    ["paths"])
 
 
 def _foreign_urls(text: str) -> list[str]:
@@ -326,6 +346,34 @@ def test_the_page_shows_the_plan_the_api_gives(page, service, tmp_path):
     print(f"\ntangram ({method}, seed {seed}): {seconds:.2f} s from the file to the plan shown")
     page.click("#steps tbody tr:first-child")
     page.screenshot(path=str(tmp_path / "page.png"), full_page=True)
+
+
+def test_an_example_is_one_click_and_planned_as_a_dropped_file(page, service, tmp_path):
+    """The page offers the shipped examples before any file: a button (here pressed from the
+    keyboard) reads one as a dropped NAME.json through /inspect and plans it at once."""
+    from rap.service.examples import EXAMPLES_DIR, example_list
+
+    open_page(page, service)
+    page.wait_for_selector("#examples:not([hidden]) button")
+    buttons = page.eval_on_selector_all("#example-buttons button",
+                                        "bs => bs.map(b => b.textContent)")
+    assert buttons == [e["name"] for e in example_list()]
+    page.select_option("#method", "rap")
+    page.fill("#seed", "2")
+    with page.expect_request(lambda r: "/inspect?" in r.url) as sent:
+        page.focus("button[data-example=hexagon]")
+        page.keyboard.press("Enter")
+    assert sent.value.url.endswith("/inspect?name=hexagon.json")
+    assert _wait(page, "planned", "error") == "planned", page.inner_text("#message")
+    asm = load_assembly(EXAMPLES_DIR / "hexagon.json")
+    labels = page.eval_on_selector_all("#parts-view text", "ts => ts.map(t => t.textContent)")
+    assert sorted(labels) == sorted(asm.ids)
+    assert page.inner_text("#file-status").startswith(f"hexagon.json: {len(asm.ids)} parts")
+    steps = _shown_steps(page)
+    assert steps and page.is_visible("#story-section")
+    assert page.inner_text("#plan-status").startswith("rap plan of hexagon: robustness R = ")
+    assert check_plan(asm, [PlanStep.from_json(st) for st in steps]) == []
+    page.screenshot(path=str(tmp_path / "page-example.png"), full_page=True)
 
 
 # -- drawings (rap.cad, the DXF/SVG importer) ---------------------------------------------------------

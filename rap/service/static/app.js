@@ -11,7 +11,9 @@
 // fieldset (shown once a file is read) sets the request's "constraints" (base part, one arm,
 // insertion cones, gravity, friction, layers: rap.plan.constraints; tooltips from the API's own
 // schema, the CLI's help); they are sent only when one is set, and a plan that no sequence under
-// them admits is the service's one line in the status line. Every request carries
+// them admits is the service's one line in the status line. "or try an example:" offers a button
+// per assembly shipped in the package (GET /examples, no token needed); a click fetches its JSON
+// (GET /examples/NAME) and reads it exactly as a dropped NAME.json. Every request carries
 // the token typed in the header (kept in sessionStorage) as "Authorization: Bearer <token>".
 // body[data-state] says where the page is: idle, reading, inspected, planning, planned, error.
 "use strict";
@@ -50,7 +52,7 @@
       err.status = resp.status;
       throw err;
     }
-    return { doc, headers: resp.headers };
+    return { doc, text, headers: resp.headers };
   }
 
   function say(text) {
@@ -362,6 +364,43 @@
     if ($("auto-plan").checked) await plan();
   }
 
+  // -- the shipped examples -------------------------------------------------------------------------
+  async function examples() { // a button per example: public data, as the page is
+    const { doc } = await request("/examples");
+    const row = $("example-buttons");
+    row.textContent = "";
+    for (const ex of doc) {
+      const b = document.createElement("button");
+      b.type = "button";
+      b.textContent = ex.name;
+      b.dataset.example = ex.name;
+      b.title = `${ex.name}.json: ${ex.parts} parts, shipped with rap-farm`;
+      b.addEventListener("click", () => readExample(ex.name));
+      row.appendChild(b);
+    }
+    $("examples").hidden = doc.length === 0;
+  }
+
+  // an example goes the way of a dropped file: its JSON, as it came, is NAME.json
+  async function readExample(name) {
+    const gen = ++state.gen;
+    say("");
+    $("file-status").textContent = `fetching the example ${name} ...`;
+    setState("reading");
+    let text;
+    try {
+      ({ text } = await request("/examples/" + encodeURIComponent(name)));
+    } catch (e) {
+      if (gen !== state.gen) return;
+      $("file-status").textContent = `${name}: not read`;
+      say(e.message);
+      setState("error");
+      return;
+    }
+    if (gen !== state.gen) return;
+    await readFile(new File([text], name + ".json", { type: "application/json" }));
+  }
+
   // -- planning -------------------------------------------------------------------------------------
   async function plan() {
     if (!state.inspected) return;
@@ -642,4 +681,5 @@
   wire();
   health();
   methods().catch((e) => say(e.status === 401 ? e.message : "methods not read: " + e.message));
+  examples().catch(() => {}); // none offered: the row stays hidden
 })();
