@@ -121,7 +121,7 @@ def test_a_plan_whose_simulations_lose_their_actors_still_gets_its_answer(ray_lo
     is found, and it is the plan of a run where nothing was lost."""
     from rap.farm.pool import SimPool
     from rap.service.planning import PlanningService, PlanRequest
-    from rap.plan.result import PlanStatus
+    from rap.plan.report.result import PlanStatus
 
     hexagon = load_assembly(ASSEMBLIES / "hexagon.json")
     sim = dataclasses.replace(FAKE, simulate="rap.sim.simulator:simulate")
