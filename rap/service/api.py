@@ -69,7 +69,9 @@ class ServeConfig:
     token: str | None = None
     trials: int = 100  # simulator trials per operation
     max_body_bytes: int = 1 << 20
-    max_parts: int = 64
+    # every assembly the input bounds allow (rap.assembly.LIMITS): a large one is bounded by
+    # plan_budget_s and max_simulations (a "budget spent" answer), not refused
+    max_parts: int = LIMITS.max_parts
     max_vertices: int = 20_000  # in all; the worst-case validation stays within parse_budget_s
     max_optimal_parts: int = 16  # the optimum's search visits every reachable subassembly
     max_simulations: int = 2000  # fresh simulations of one request's search
@@ -164,7 +166,7 @@ def _constraints(raw) -> CellConstraints:
         raise BadRequest(400, exc.for_name(name)) from None
 
 
-def parse_plan_request(body: bytes, *, max_parts: int = 64, max_optimal_parts: int = 16,
+def parse_plan_request(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optimal_parts: int = 16,
                        max_simulations: int = 2000, max_vertices: int = 20_000):
     """(assembly, method, root seed, planner options, ``CellConstraints``) of a ``POST /plan``
     body, or ``BadRequest``."""
@@ -227,7 +229,7 @@ def _upload_name(name: str | None) -> str:
     return base
 
 
-def read_upload(name: str | None, body: bytes, *, max_parts: int = 64,
+def read_upload(name: str | None, body: bytes, *, max_parts: int = LIMITS.max_parts,
                 max_vertices: int = 20_000) -> Assembly:
     """The validated assembly of an uploaded file named ``name`` (its suffix chooses the reader:
     ``rap.io.load_assembly`` on a copy written under that name, so that an assembly without a

@@ -74,7 +74,6 @@ def test_bad_planner_options_are_one_line(body, status, needle):
     (json.dumps({"assembly": []}).encode(), 400, "assembly: top level must be"),
     (json.dumps({"assembly": {"parts": [SQUARES["parts"][0]] * 2}}).encode(), 400,
      "assembly: part 'a': duplicate id"),
-    (json.dumps({"assembly": assembly_to_json(grid(9))}).encode(), 413, "81 parts"),
     (json.dumps({"assembly": assembly_to_json(grid(5)), "method": "optimal"}).encode(), 413,
      "optimal"),
 ])
@@ -99,3 +98,20 @@ def test_only_loopback_is_served_without_a_token(host, ok):
     with pytest.raises(InputError, match="16 characters"):
         ServeConfig(host=host, token="short").check()
     assert "token" not in ServeConfig(token="t" * 20).to_dict()
+
+
+def test_a_hundred_part_drawing_is_a_question_not_a_refusal():
+    """The service plans what the input bounds allow (issue 37): a 100-part grid is parsed, and
+    only an assembly past ``max_parts`` (the input bounds by default) is refused with 413."""
+    import json as _json
+
+    from rap.assembly import LIMITS, assembly_to_json
+    from rap.geometry.families.simple import grid
+    from rap.service.api import ServeConfig
+
+    body = _json.dumps({"assembly": assembly_to_json(grid(10)), "method": "search"}).encode()
+    assert len(parse_plan_request(body)[0]) == 100
+    assert ServeConfig().max_parts == LIMITS.max_parts
+    with pytest.raises(BadRequest) as err:
+        parse_plan_request(body, max_parts=64)
+    assert err.value.status == 413 and "100 parts" in err.value.message
