@@ -323,7 +323,7 @@ def test_the_page_says_what_is_wrong_in_one_line(page, service, tmp_path):
     dovetail.write_text(json.dumps(DOVETAIL))
     page.set_input_files("#file", str(dovetail))
     assert _wait(page, "planned", "error") == "planned"
-    assert "the subassembly {mortise, tenon} is interlocked" in page.inner_text("#plan-status")
+    assert "the subassembly {mortise,tenon}: it is interlocked" in page.inner_text("#plan-status")
     assert page.is_hidden("#story-section") and page.is_hidden("#message")
 
 
@@ -372,6 +372,7 @@ def test_an_example_is_one_click_and_planned_as_a_dropped_file(page, service, tm
     steps = _shown_steps(page)
     assert steps and page.is_visible("#story-section")
     assert page.inner_text("#plan-status").startswith("rap plan of hexagon: robustness R = ")
+    assert "expected failed steps" in page.inner_text("#plan-status")  # beside R (issue 37)
     assert check_plan(asm, [PlanStep.from_json(st) for st in steps]) == []
     page.screenshot(path=str(tmp_path / "page-example.png"), full_page=True)
 

@@ -452,9 +452,9 @@
     if (doc.feasible !== true) {
       $("story-section").hidden = true;
       // under constraints the service's line names the rule that blocks (or the interlock)
+      // the service's own line: it names an interlock only where nothing separates the parts
       const why = doc.feasible === false
-        ? (doc.constraints ? doc.message
-          : `no assembly sequence: the subassembly {${doc.interlocked.join(", ")}} is interlocked`)
+        ? (doc.message || `no assembly sequence: the subassembly {${doc.interlocked.join(", ")}} is interlocked`)
         : `no plan: ${doc.status} (${doc.message})`;
       $("plan-status").textContent = `${doc.method}: ${why}; ${timing}`;
       return;
@@ -464,8 +464,13 @@
         `${doc.robustness_interval[1].toFixed(3)})` : "");
     const evaluated = state.details && typeof state.details.eval_seconds === "number"
       ? `, evaluated by the simulator in ${state.details.eval_seconds.toFixed(2)} s` : "";
+    // beside R, what a long plan's reader can weigh: the expected failed steps and the weakest
+    const weak = (doc.weakest_steps || []).map((i) => `${i} (${doc.steps[i - 1].score.toFixed(2)})`);
+    const failures = typeof doc.expected_failures === "number"
+      ? `; expected failed steps ${doc.expected_failures.toFixed(2)}` +
+        (weak.length ? `, weakest: step ${weak.join(", ")}` : "") : "";
     $("plan-status").textContent = `${doc.method} plan of ${doc.assembly}: robustness R = ${r} ` +
-      `over ${doc.steps.length} steps${cell}, planned in ${doc.seconds.toFixed(2)} s` +
+      `over ${doc.steps.length} steps${failures}${cell}, planned in ${doc.seconds.toFixed(2)} s` +
       `${evaluated}; ${timing}`;
     const tbody = $("steps").querySelector("tbody");
     tbody.textContent = "";
