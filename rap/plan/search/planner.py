@@ -11,7 +11,9 @@ which is spent only where it decides. Its options and their measured defaults ar
    interlocked subassembly is a dead end (value 0), not a failure.
 2. **Beam** (beyond it, e.g. 30 or 100 parts): top-down beam search over partial decompositions,
    each round expanding every state's largest open subassembly and keeping the ``beam_width``
-   states of highest score product.
+   states of highest score product. Simulator-only greedy's plan is computed first and joins
+   the final beam, fully simulated: the search then returns a plan at least as robust as
+   greedy's (measured in its ``stats``: ``greedy_robustness``, ``greedy_seconds``).
 3. **Refine** (``_refine``, both modes): the chosen sequence's operations neither simulated nor
    trusted (predicted at ``trust`` or more) are simulated, their scores replace the predictions
    and the choice is made again, until it is settled or ``simulations`` are spent. While
@@ -56,6 +58,7 @@ from rap.plan.search.options import SearchOptions
 from rap.plan.search.scores import SearchScores, incumbent, report
 from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
 from rap.plan.planners.base import Planner
+from rap.plan.planners.greedy import SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStep
 from rap.stats import bonferroni
@@ -190,7 +193,8 @@ class SearchPlanner(Planner):
             trees = self._exact(graph, scores, whole, stats)
         else:
             stats["search"] = "beam"
-            trees = self._beam(problem, scores, whole, stats, run)
+            trees = self._beam(problem, scores, whole, stats, run,
+                               self._greedy_sequence(problem, scorer, scores, stats))
         _CURRENT.run = run
         steps = {}
         for sub, op in trees.items():
@@ -283,8 +287,23 @@ class SearchPlanner(Planner):
             lambda: incumbent(graph, scores, whole))
 
     # -- beam -------------------------------------------------------------------------------------
+    @staticmethod
+    def _greedy_sequence(problem, scorer, scores: SearchScores, stats) -> tuple:
+        """Simulator-only greedy's sequence as a beam state's choices ((subassembly, operation)
+        pairs), its scores known to the search: the beam's first complete plan, so that the
+        search never returns a worse one (module doc, 2). Cost: greedy's simulations."""
+        t = time.perf_counter()
+        before = scorer.stats.sim_run
+        steps = SimPlanner()._search(problem, scorer, {})
+        ops = [s.to_operation() for s in steps]
+        scores.add_simulated(ops, [s.score for s in steps])
+        stats.update(greedy_simulations=scorer.stats.sim_run - before,
+                     greedy_seconds=time.perf_counter() - t,
+                     greedy_robustness=math.prod(s.score for s in steps))
+        return tuple((op.moving | op.fixed, op) for op in ops)
+
     def _beam(self, problem: PlanningProblem, scores: SearchScores, whole, stats,
-              run: _Run) -> dict:
+              run: _Run, first: tuple = ()) -> dict:
         # a state: (log product, tie-break counter, open subassemblies largest first, choices)
         beam = [(0.0, 0, (whole,), ())]
         counter = 1
@@ -316,6 +335,9 @@ class SearchPlanner(Planner):
                                   else whole)
             beam = heapq.nlargest(self.beam_width, nxt, key=lambda st: (st[0], -st[1]))
         stats.update(beam_rounds=rounds, beam_width=self.beam_width)
+        if first and all(st[3] != first for st in beam):  # greedy's plan competes (module doc, 2)
+            beam.append((sum(math.log(max(scores.of(op), 1e-300)) for _, op in first), counter,
+                         (), first))
         run.beam = [[op for _, op in st[3]] for st in beam]
         # simulations where they matter: re-rank the final sequences by mixed products
         ranked: list = []

@@ -170,3 +170,32 @@ def test_a_spent_budget_under_optimism_chooses_by_what_is_known():
     assert r.stats["search_simulations"] == 3
     assert r.robustness == pytest.approx(best.robustness)
     assert r.stats["predicted_robustness"] == pytest.approx(best.robustness)
+
+
+def test_the_beam_never_returns_a_plan_worse_than_simulator_only_greedy():
+    """Beyond the exact budget, greedy's plan joins the final beam, so a model that misleads the
+    beam (it predicts the opposite of the simulator) cannot make the search worse than greedy;
+    and the case matters: the misled beam alone is worse than greedy on some assemblies."""
+    from rap.plan.planners.greedy import SimPlanner
+    from rap.plan.search.planner import _Run
+    from rap.plan.search.scores import SearchScores
+
+    liar = TableCnn(lambda op: 0.5, score_fn=lambda op: 1.0 - hash_score(op))
+    worse_alone = []
+    for name in SIX:
+        problem = PlanningProblem(six(name), PARAMS)
+        greedy = SimPlanner().solve(problem, scorer(None))
+        for options in (dict(simulations=0, upper=0.0), {}):  # the model alone; the shipped search
+            found = SearchPlanner(max_operations=1, beam_width=2, **options).solve(
+                problem, scorer(liar))
+            assert found.stats["search"] == "beam"
+            assert check_plan(problem.assembly, found.steps) == []
+            assert found.robustness >= greedy.robustness, name
+            assert found.stats["greedy_robustness"] == pytest.approx(greedy.robustness)
+        alone = SearchPlanner(max_operations=1, beam_width=2, simulations=0, upper=0.0)
+        s = scorer(liar)
+        sc = SearchScores(problem, s)
+        trees = alone._beam(problem, sc, problem.whole, {}, _Run(sc))  # no greedy plan in it
+        worse_alone.append(float(np.prod(s.scores(problem, list(trees.values()))))
+                           < greedy.robustness)
+    assert any(worse_alone), worse_alone
