@@ -84,6 +84,9 @@ def bound_lines(result) -> list[str]:
     elif st.get("stopped") == "budget" and "phase2_simulations" in st:
         out.append(f"the budget ran out after {n} simulations, {st['phase2_simulations']} of "
                    f"them after the choice settled, before --gap {st['gap']:g} was reached")
+    elif st.get("stopped") == "time":
+        out.append(f"--time-limit reached: the plan is the best by what was known after "
+                   f"{st.get('search_simulations', 0)} simulations")
     return out
 
 

@@ -142,6 +142,7 @@ def plan_command(
     upper: float = _method_flag("upper"),
     confidence: float = _method_flag("confidence"),
     gap: float = _method_flag("gap"),
+    time_limit: float = _method_flag("time_limit"),
     # the robot cell's constraints (rap.plan.cell.constraints; docs/PLANNING.md, Robot-cell constraints)
     base: str = BASE, linear: bool = LINEAR, directions: list[str] = DIRECTIONS,
     gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,
@@ -158,7 +159,7 @@ def plan_command(
     options = dict(samples=samples, fallback_k=fallback_k, high_probability=high_probability,
                    fallback_optimism=fallback_optimism, beam_width=beam_width,
                    simulations=simulations, trust=trust, optimism=optimism, upper=upper,
-                   confidence=confidence, gap=gap)  # None: not given
+                   confidence=confidence, gap=gap, time_limit=time_limit)  # None: not given
     _check_request(method, space, options, out, picture, err)
     cell = cell_constraints(base, linear, directions, gravity, friction, layers)
     _check_suffix(csv, "--csv", (".csv",))

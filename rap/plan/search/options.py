@@ -73,6 +73,11 @@ class SearchOptions(PlannerOptions):
              "is within GAP of the bound on the optimum, going on by the bounds after the "
              "choice is settled, or until the budget is spent (0.05: 5%; 0: off, stop when the "
              "choice is settled or the budget spent)")
+    time_limit: float = option(
+        float, 0.0, low=0.0, code="l", code_name="S", noun="seconds", default_help="none",
+        help="Method {method} with {simulations}: stop simulating after S seconds of planning and "
+             "return the best plan by what is known then (checked between rounds of "
+             "simulations; 0: no limit)")
     beam_width: int = option(int, DEFAULT_BEAM, low=1, code="w", code_name="W",
                              help="Method {method}: beam width beyond the exact search's budget")
     bound_round: int = option(

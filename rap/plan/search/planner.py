@@ -128,6 +128,12 @@ class SearchPlanner(Planner):
             todo = todo[:self.bound_round]
         return todo[:max(0, math.ceil(self.simulations - spent))]
 
+    def _spent(self, scores: SearchScores, spent: int) -> bool:
+        """Whether the refine loop must stop simulating: ``simulations`` spent, or ``time_limit``
+        seconds passed since the plan was asked for (checked between rounds; 0: no limit)."""
+        return spent >= self.simulations or bool(
+            self.time_limit and time.perf_counter() - scores.scorer.started > self.time_limit)
+
     def _free_bound(self, scores: SearchScores) -> bool:
         """Whether the choosing scores are the upper bounds themselves (the DP's value is V)."""
         return scores.upper == 1.0 and not scores.optimism and scores.trust is None
@@ -156,7 +162,7 @@ class SearchPlanner(Planner):
         """When the choice is settled short of ``gap`` with budget left: phase 2 (module doc, 5)
         starts, choosing by the bounds themselves; returns what it must never fall below (the
         settled choice and its robustness by known scores), or None when it does not start."""
-        if not (self.gap is not None and spent < self.simulations):
+        if not (self.gap is not None and not self._spent(scores, spent)):
             return None
         scores.by_bounds()
         stats.update(phase1_simulations=spent, gap=self.gap)
@@ -248,19 +254,21 @@ class SearchPlanner(Planner):
                     return got_plan if floor is None else self._kept(scores, got_plan, floor,
                                                                      spent, stats)
             todo = self._to_simulate(scores, choice.values())
-            if floor is not None and (not todo or spent >= self.simulations):
-                stats.update(stopped="budget", search_bound=value, stopped_after=spent)
+            out = self._spent(scores, spent)
+            why = "budget" if spent >= self.simulations else "time"
+            if floor is not None and (not todo or out):
+                stats.update(stopped=why, search_bound=value, stopped_after=spent)
                 return self._kept(scores, got_plan, floor, spent, stats)
-            if todo and spent >= self.simulations and scores.raised:
+            if todo and out and scores.raised:
                 # budget spent with raised scores still in the choice: choose by what is known
                 scores.lower()
                 continue
             if not todo and (floor := self._second_phase(scores, choice, spent, stats)):
                 continue
-            if not todo or spent >= self.simulations:
+            if not todo or out:
                 stats["predicted_robustness"] = math.prod(scores.known(op)
                                                           for op in choice.values())
-                stats["stopped"] = "budget" if todo else "settled"
+                stats["stopped"] = why if todo else "settled"
                 return choice
             todo = self._batch(scores, todo, spent)
             scores.simulate(todo)

@@ -199,3 +199,17 @@ def test_the_beam_never_returns_a_plan_worse_than_simulator_only_greedy():
         worse_alone.append(float(np.prod(s.scores(problem, list(trees.values()))))
                            < greedy.robustness)
     assert any(worse_alone), worse_alone
+
+
+def test_a_time_limit_stops_the_simulations_and_returns_the_best_known_plan():
+    problem = PlanningProblem(six("triangles"), PARAMS)
+    model = TableCnn(lambda op: 0.5, score_fn=lambda op: 0.5 * hash_score(op))  # underrates all
+    free = SearchPlanner(simulations=400, upper=1.0).solve(problem, scorer(model))
+    assert free.stats["search_simulations"] > 2
+    # a limit already passed when the first round ends: one round of simulations, then a plan
+    limited = SearchPlanner(simulations=400, upper=1.0, time_limit=1e-9).solve(problem,
+                                                                              scorer(model))
+    assert limited.status is PlanStatus.FOUND and check_plan(problem.assembly, limited.steps) == []
+    assert limited.stats["stopped"] == "time"
+    assert limited.stats["search_simulations"] < free.stats["search_simulations"]
+    assert SearchPlanner().time_limit == 0.0  # the shipped search: no limit
