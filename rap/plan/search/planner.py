@@ -62,7 +62,7 @@ from rap.plan.planners.greedy import SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStep
 from rap.stats import bonferroni
-from rap.plan.scoring.scorer import Scorer
+from rap.plan.scoring.scorer import BudgetSpent, Scorer
 
 __all__ = ["SearchPlanner"]
 
@@ -208,7 +208,8 @@ class SearchPlanner(Planner):
             steps[sub] = PlanStep.of(op, "sim" if k in scores.simulated else "cnn",
                                      score=scores.simulated.get(k),
                                      confidence=scores.predicted.get(k))
-        stats["search_simulations"] = len(scores.simulated)
+        # the refine loop's simulations (greedy's own are ``greedy_simulations``)
+        stats["search_simulations"] = len(scores.simulated) - stats.get("greedy_steps", 0)
         stats["predicted_operations"] = len(scores.predicted)
         return assembly_order(steps, whole)
 
@@ -271,7 +272,11 @@ class SearchPlanner(Planner):
                 stats["stopped"] = why if todo else "settled"
                 return choice
             todo = self._batch(scores, todo, spent)
-            scores.simulate(todo)
+            try:
+                scores.simulate(todo)
+            except BudgetSpent:  # the scorer's own budget (a service request's): stop here
+                spent = self.simulations
+                continue
             spent += len(todo)
 
     # -- exact ------------------------------------------------------------------------------------
@@ -302,10 +307,14 @@ class SearchPlanner(Planner):
         search never returns a worse one (module doc, 2). Cost: greedy's simulations."""
         t = time.perf_counter()
         before = scorer.stats.sim_run
-        steps = SimPlanner()._search(problem, scorer, {})
+        try:
+            steps = SimPlanner()._search(problem, scorer, {})
+        except (BudgetSpent, Interlocked):  # the caller's budget, or a dead end: the beam decides
+            stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_robustness=None)
+            return ()
         ops = [s.to_operation() for s in steps]
         scores.add_simulated(ops, [s.score for s in steps])
-        stats.update(greedy_simulations=scorer.stats.sim_run - before,
+        stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_steps=len(ops),
                      greedy_seconds=time.perf_counter() - t,
                      greedy_robustness=math.prod(s.score for s in steps))
         return tuple((op.moving | op.fixed, op) for op in ops)
