@@ -19,8 +19,8 @@ LAYERS = {
     "rap.assembly": 1, "rap.assembly_reader": 1, "rap.operation": 1,
     "rap.geometry": 2, "rap.io": 3, "rap.enumerate": 3,
     "rap.sim": 4, "rap.render": 4, "rap.dataset": 4,
-    "rap.model": 5, "rap.labelling": 5, "rap.plan": 6, "rap.farm": 7, "rap.commands": 8, "rap.cli": 9,
-    "rap.files": 0, "rap.client": 8, "rap.cad": 3,
+    "rap.model": 5, "rap.labelling": 5, "rap.plan": 6, "rap.robot": 7, "rap.farm": 8,
+    "rap.commands": 9, "rap.cli": 10, "rap.files": 0, "rap.client": 9, "rap.cad": 3,
 }
 
 
