@@ -21,8 +21,9 @@ Model.
 * **Grip and insertion**: from the approach on, the part hangs on the TCP by a fixed constraint
   of strength ``hold_force_n`` (the suction cup's hold), the TCP moves at ``insertion_speed_m_s``
   from approach to start to goal with physics at ``dt_s``, and the planner's actuation noise acts
-  on the part perpendicular to the insertion: a force uniform in ``[-eta, eta] x m x g`` per
-  step (``SimParams.eta``), in the assembly's plane. At the goal the part is given
+  on the part perpendicular to the insertion: a force uniform in ``[-eta, eta] x m x
+  noise_accel_m_s2`` (g) per step (``SimParams.eta``), in the assembly's plane. The IK is solved
+  every ``ik_every`` steps (2-3 mm of path at most) and the joints interpolated between. At the goal the part is given
   ``settle_s`` to come to rest, judged (**inserted** when within ``pos_tol`` of its extent, as
   the planner's success, and ``angle_tol_rad`` of its goal; else **jammed**), released, and the
   parts settle for ``settle_s`` under gravity.
@@ -43,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rap.assembly import Assembly
+from rap.robot.arm import set_joints
 from rap.robot.kinematics import IkSolver
 from rap.robot.program import Program
 from rap.robot.trials import Rate, rate
@@ -64,6 +66,8 @@ class ArmSimParams:
     pos_tol: float = DEFAULT_PARAMS.pos_tol  # fraction of the part's extent
     angle_tol_rad: float = DEFAULT_PARAMS.angle_tol_rad
     settle_s: float = 0.25
+    ik_every: int = 8  # physics steps between IK solves along the insertion (joints interpolated)
+    noise_accel_m_s2: float = 9.81  # the noise's scale: eta x m x this
     solver_iterations: int = 50
 
 
@@ -139,7 +143,12 @@ class _Scene:
             rgba = (0.45, 0.45, 0.5, 1) if pid == program.fixture else colours[k % 3]
             for pc in polys:
                 v = _prism(w, _shrink(pc, inset), lo, hi, fr, ref)
-                shapes.append(w.createCollisionShape(w.GEOM_MESH, vertices=v))
+                shape = w.createCollisionShape(w.GEOM_MESH, vertices=v)
+                # the margin belongs to the shape, and changeDynamics sets it only through a
+                # body's base: a static holder far below the table sets it for the links too
+                holder = w.createMultiBody(0, shape, basePosition=[0, 0, -100.0])
+                w.changeDynamics(holder, -1, collisionMargin=p.collision_margin_m)
+                shapes.append(shape)
                 visuals.append(w.createVisualShape(w.GEOM_MESH, vertices=v, indices=_faces(len(pc)),
                                                    rgbaColor=rgba))
                 area = abs(sum(x1 * y2 - x2 * y1 for (x1, y1), (x2, y2)
@@ -227,20 +236,27 @@ def _run_trial(program, assembly, p, rng, counts, frames, camera):
             path = [np.array(step.waypoint(n).position) for n in ("approach", "start", "goal")]
             speed = program.cell.motion.insertion_speed_m_s
             n_frame = 0
+            body, arm, model = scene.body[pid], scene.ik.arm, scene.ik.model
             for a, b in zip(path, path[1:]):
                 n = max(1, int(math.ceil(np.linalg.norm(b - a) / (speed * dt))))
-                for i in range(1, n + 1):
-                    reached &= scene.move_tcp(a + (b - a) * i / n)
-                    f = rng.uniform(-p.eta, p.eta) * mass * 9.81
-                    w.applyExternalForce(scene.body[pid], -1, list(map(float, f * perp)),
-                                         [0, 0, 0], w.LINK_FRAME)
-                    w.stepSimulation()
-                    if i % 8 == 0:
-                        touched |= bool(any(w.getContactPoints(scene.ik.arm, scene.body[q])
-                                            for q in scene.placed))
-                    n_frame += 1
-                    if frames is not None and n_frame % 24 == 0:
-                        frames.append(camera(w))
+                q0 = scene.q
+                for i0 in range(0, n, p.ik_every):  # IK at knots, joints interpolated between
+                    i1 = min(n, i0 + p.ik_every)
+                    reached &= scene.move_tcp(a + (b - a) * i1 / n)
+                    q1 = scene.q
+                    for i in range(i0 + 1, i1 + 1):
+                        set_joints(w, arm, model, q0 + (q1 - q0) * (i - i0) / (i1 - i0))
+                        f = rng.uniform(-p.eta, p.eta) * mass * p.noise_accel_m_s2
+                        at = w.getBasePositionAndOrientation(body)[0]
+                        w.applyExternalForce(body, -1, list(map(float, f * perp)), at,
+                                             w.WORLD_FRAME)
+                        w.stepSimulation()
+                        n_frame += 1
+                        if frames is not None and n_frame % 24 == 0:
+                            frames.append(camera(w))
+                    q0 = q1
+                    touched |= bool(any(w.getContactPoints(arm, scene.body[o])
+                                        for o in scene.placed))
             for _ in range(int(p.settle_s / dt)):
                 w.stepSimulation()
             c.reached += reached

@@ -20,8 +20,8 @@ __all__ = ["camera", "write_gif"]
 def camera(program, width: int = 320, height: int = 240):
     """A renderer of worlds that hold ``program``'s cell (module doc)."""
     fr = program.frame
-    target = fr.origin + np.array([-0.05, 0.1, 0.12])
-    eye = target + np.array([0.45, -0.75, 0.45])
+    target = fr.origin + np.array([0.0, 0.06, 0.07])
+    eye = target + np.array([0.3, -0.5, 0.3])
 
     def shoot(world):
         from PIL import Image
