@@ -11,8 +11,8 @@ rotation about the part's centroid) becomes the part's placement from then on. A
 its first failed step (later steps are not tried).
 
 The displaced geometry is rebuilt per step as an ``Assembly`` whose coordinates are the moved
-vertices rounded to rationals of denominator at most ``DENOMINATOR`` (10^-6 of a unit: far below
-the tolerances). Randomness: run ``i`` draws from ``SeedSequence(seed).spawn(trials)[i]``, so a
+vertices rounded to multiples of ``1 / DENOMINATOR`` (10^-6 of a unit: far below the tolerances;
+one common denominator keeps the exact convex decomposition's integers small). Randomness: run ``i`` draws from ``SeedSequence(seed).spawn(trials)[i]``, so a
 run does not depend on the others. Returns a ``PlanarOutcome``: successes, per-step reached and
 failed counts, and the plan success's Clopper-Pearson interval (``rap.robot.trials``).
 
@@ -57,8 +57,8 @@ def _moved_ring(ring, pose) -> tuple:
     out = []
     for x, y in ring:
         dx, dy = float(x) - px, float(y) - py
-        out.append((Fraction(px + c * dx - s * dy + ox).limit_denominator(DENOMINATOR),
-                    Fraction(py + s * dx + c * dy + oy).limit_denominator(DENOMINATOR)))
+        out.append((Fraction(round((px + c * dx - s * dy + ox) * DENOMINATOR), DENOMINATOR),
+                    Fraction(round((py + s * dx + c * dy + oy) * DENOMINATOR), DENOMINATOR)))
     return tuple(out)
 
 
