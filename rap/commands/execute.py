@@ -6,7 +6,8 @@ Runs a plan N times and reports what happened beside R (the plan's ``robustness`
 * by default, on the cell's arm in pybullet (``rap.robot.arm_sim``): the program of
   ``rap-farm export`` (checked by the arm's kinematics first, exit 1 when unreachable), per step
   how often it was reached, inserted or jammed, and whether the arm touched a placed part;
-  ``--gif FILE`` writes the first run as an animated GIF;
+  ``--gif FILE`` writes the first run as an animated GIF; ``--grasp-error-mm E`` puts each part
+  off the cup's place by up to E mm across the insertion (a position-controlled arm's error);
 * ``--planar``: in the planar simulator that scored the plan (``rap.robot.planar``), each step
   starting where the earlier steps of the same run left the parts; per step how often it was
   tried and failed. Any found plan runs (no arm, no cell).
@@ -42,6 +43,10 @@ def execute_command(
     trials: int = typer.Option(20, "--trials", min=1, max=100000, help="Runs of the whole plan."),
     seed: int = typer.Option(0, "--seed", help="Root seed of the runs' noise."),
     gif: Path = typer.Option(None, "--gif", help="Write the first arm run as an animated GIF."),
+    grasp_error_mm: float = typer.Option(0.0, "--grasp-error-mm", min=0.0, max=100.0,
+                                         help="Arm: each part sits off the cup's place by up to "
+                                              "this across the insertion (pick, calibration "
+                                              "error) [default: 0]."),
     planar: bool = typer.Option(False, "--planar",
                                 help="Run in the planar simulator, noise carried from step to "
                                      "step, instead of on the arm."),
@@ -64,7 +69,9 @@ def execute_command(
         typer.echo(f"planar sequence success {out.success.text()} beside {_r_text(plan_r)}; "
                    f"{out.seconds:.1f} s")
         return
-    from rap.robot.arm_sim import run_arm
+    from dataclasses import replace
+
+    from rap.robot.arm_sim import DEFAULT_ARM_SIM, run_arm
     from rap.robot.cell import load_cell
     from rap.robot.kinematics import check_program
     from rap.robot.program import build_program
@@ -76,7 +83,9 @@ def execute_command(
         from rap.robot.gif import camera
 
         frames, shoot = [], camera(program)
-    out = run_arm(program, asm, trials=trials, seed=seed, frames=frames, camera=shoot)
+    params = replace(DEFAULT_ARM_SIM, grasp_error_m=grasp_error_mm / 1000.0)
+    out = run_arm(program, asm, trials=trials, seed=seed, params=params, frames=frames,
+                  camera=shoot)
     typer.echo(f"kinematic check: {len(program.waypoints)} waypoints reached by the "
                f"{program.cell.robot.arm} ({report.solves} IK solves)")
     typer.echo("step  part            reached  inserted  jammed  arm touched a placed part")

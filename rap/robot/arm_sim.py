@@ -27,6 +27,9 @@ Model.
   ``settle_s`` to come to rest, judged (**inserted** when within ``pos_tol`` of its extent, as
   the planner's success, and ``angle_tol_rad`` of its goal; else **jammed**), released, and the
   parts settle for ``settle_s`` under gravity.
+* **Grasp error** (``grasp_error_m``, 0 by default; ``execute --grasp-error-mm``): where the
+  cup took the part in the tray is off by ``U(-e, e)`` across the insertion, drawn per step: a
+  position-controlled arm's error (pick, calibration), which the force noise does not model.
 * **Plan success**: every step inserted and, at the end, every part within the tolerance of its
   assembled place (nothing toppled by a later step).
 
@@ -68,6 +71,7 @@ class ArmSimParams:
     settle_s: float = 0.25
     ik_every: int = 8  # physics steps between IK solves along the insertion (joints interpolated)
     noise_accel_m_s2: float = 9.81  # the noise's scale: eta x m x this
+    grasp_error_m: float = 0.0  # the part sits off the cup's place by U(-this, this) across
     solver_iterations: int = 50
 
 
@@ -215,6 +219,12 @@ def _run_trial(program, assembly, p, rng, counts, frames, camera):
             mass = sum(w.getDynamicsInfo(scene.body[pid], link)[0]
                        for link in range(-1, w.getNumJoints(scene.body[pid])))
             touched, reached = False, True
+            perp = np.cross(step.insertion, program.frame.depth_axis)
+            if program.frame.plane == "horizontal":
+                perp = np.cross(program.frame.depth_axis, step.insertion)
+            perp = perp / (np.linalg.norm(perp) or 1.0)
+            if p.grasp_error_m > 0:  # where the cup took the part: off by up to this, across
+                offset = offset - rng.uniform(-p.grasp_error_m, p.grasp_error_m) * perp
             for name in ("pick_above", "pick", "lift", "transit", "approach"):
                 reached &= _carry(scene, pid, offset, np.array(step.waypoint(name).position))
                 touched |= scene.arm_touches()
@@ -229,10 +239,6 @@ def _run_trial(program, assembly, p, rng, counts, frames, camera):
             w.changeConstraint(cid, maxForce=p.hold_force_n)
             for link in range(-1, w.getNumJoints(scene.ik.arm)):
                 w.setCollisionFilterPair(scene.ik.arm, scene.body[pid], link, -1, 0)
-            perp = np.cross(step.insertion, program.frame.depth_axis)
-            if program.frame.plane == "horizontal":
-                perp = np.cross(program.frame.depth_axis, step.insertion)
-            perp = perp / (np.linalg.norm(perp) or 1.0)
             path = [np.array(step.waypoint(n).position) for n in ("approach", "start", "goal")]
             speed = program.cell.motion.insertion_speed_m_s
             n_frame = 0
