@@ -37,3 +37,14 @@ def test_a_moved_part_is_moved_exactly_when_posed(stack):
 def test_execute_planar_reports_r_beside(run_cli):
     code, out, _ = run_cli("execute", STACK_PLAN, "--assembly", STACK, "--planar", "--trials", "4")
     assert code == 0 and "planar sequence success" in out and "R = 0.980" in out
+
+
+def test_a_grasp_error_beyond_the_tolerance_jams(stack):
+    from dataclasses import replace
+
+    from rap.robot.arm_sim import DEFAULT_ARM_SIM
+
+    plan, _, asm = stack
+    far = replace(DEFAULT_ARM_SIM, grasp_error_m=0.015)  # the tolerance: 5% of 40 mm
+    out = run_arm(build_program(plan, asm, Cell()), asm, trials=2, seed=1, params=far)
+    assert out.success.successes < 2 and sum(c.jammed for c in out.steps) >= 1
