@@ -65,7 +65,7 @@ def main() -> None:
         t_export, prog = timed(export, args.repeat)
     check = lambda: check_program(prog)  # noqa: E731
     t_check, report = timed(check, args.repeat)
-    solver = IkSolver()
+    solver = IkSolver(tool_offset_m=Cell().gripper.tool_offset_m)
     warm = lambda: check_program(prog, solver)  # noqa: E731
     t_warm, _ = timed(warm, args.repeat)
     solver.close()

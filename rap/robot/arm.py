@@ -1,9 +1,9 @@
 """The arm models rap-farm knows, and a pybullet world that holds one.
 
 ``ARM_MODELS["panda"]``: the Franka Emika Panda of ``pybullet_data`` (``franka_panda/panda.urdf``,
-shipped in the pybullet wheel, Apache 2.0): 7 revolute joints with the URDF's limits, the TCP at
-the ``panda_grasptarget`` link (between the fingertips, where a suction cup on the flange would
-hold the part). Its base is the cell's base frame (origin, x forward, z up).
+shipped in the pybullet wheel, Apache 2.0): 7 revolute joints with the URDF's limits, the fingers closed; the
+suction cup hangs ``gripper.tool_offset_m`` below the ``panda_grasptarget`` link (between the
+fingertips), so the TCP is that far below it along the tool axis. Its base is the cell's base frame (origin, x forward, z up).
 
 ``open_world()`` starts a pybullet physics server in DIRECT mode (no window, no GL), owned by a
 ``BulletClient`` so several can live in one process; ``load_arm(world, model)`` loads the arm
@@ -39,7 +39,7 @@ class ArmModel:
     tcp_link: int
     home: tuple[float, ...]  # a tool-down pose above the table
     reach_m: float  # nominal reach (the maker's figure), for messages
-    fixed_joints: tuple[tuple[int, float], ...] = ()  # other joints held (fingers open)
+    fixed_joints: tuple[tuple[int, float], ...] = ()  # other joints held (fingers closed)
 
 
 ARM_MODELS = {
@@ -49,7 +49,7 @@ ARM_MODELS = {
         lower=(-2.9671, -1.8326, -2.9671, -3.1416, -2.9671, -0.0873, -2.9671),
         upper=(2.9671, 1.8326, 2.9671, 0.0, 2.9671, 3.8223, 2.9671),
         tcp_link=11, home=(0.0, -0.4, 0.0, -2.2, 0.0, 1.8, 0.785), reach_m=0.855,
-        fixed_joints=((9, 0.04), (10, 0.04))),
+        fixed_joints=((9, 0.0), (10, 0.0))),
 }
 
 

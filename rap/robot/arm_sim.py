@@ -127,7 +127,8 @@ class _Scene:
         self.p, self.program, fr = p, program, program.frame
         self.world = w = open_world()
         w.setPhysicsEngineParameter(fixedTimeStep=p.dt_s, numSolverIterations=p.solver_iterations)
-        self.ik = IkSolver(program.cell.robot.arm, world=w)
+        self.ik = IkSolver(program.cell.robot.arm, world=w,
+                           tool_offset_m=program.cell.gripper.tool_offset_m)
         plane = w.createCollisionShape(w.GEOM_PLANE)
         self.table = w.createMultiBody(0, plane, basePosition=[0, 0, fr.table_z])
         w.changeDynamics(self.table, -1, lateralFriction=p.friction)

@@ -59,6 +59,7 @@ class TableSection:
 class GripperSection:
     kind: str = "suction"
     cup_diameter_m: float = 0.012
+    tool_offset_m: float = 0.04
     output: int = 0
 
 
@@ -148,7 +149,8 @@ def _slots(where, v):
     return tuple(sorted((str(k), _xy(f"{where}.{k}", xy)) for k, xy in v.items()))
 
 
-_POSITIVE = {"unit_m", "thickness_m", "cup_diameter_m", "spacing_m", "approach_height_m",
+_POSITIVE = {"unit_m", "thickness_m", "cup_diameter_m", "tool_offset_m", "spacing_m",
+             "approach_height_m",
              "joint_speed_rad_s", "joint_acceleration_rad_s2", "linear_speed_m_s",
              "insertion_speed_m_s", "linear_acceleration_m_s2"}
 _CHECKS = {

@@ -70,10 +70,12 @@ def _angle(q1, q2) -> float:
 
 class IkSolver:
     """Tool-down IK on one arm in its own DIRECT world (module doc). ``solve(target, seed)``
+    puts the TCP, ``tool_offset_m`` below the arm's TCP link along the tool axis, at ``target``;
     returns ``(q, position error, angle error, clipped joint indices)``."""
 
-    def __init__(self, arm: str = "panda", world=None):
+    def __init__(self, arm: str = "panda", world=None, tool_offset_m: float = 0.0):
         self.model = ARM_MODELS[arm]
+        self.lift = np.array([0.0, 0.0, float(tool_offset_m)])  # TCP -> link, tool pointing down
         self.world = world if world is not None else open_world()
         self.arm = load_arm(self.world, self.model)
         self.lower = np.array(self.model.lower)
@@ -83,7 +85,7 @@ class IkSolver:
         w, m = self.world, self.model
         q = np.array(seed, dtype=float)
         set_joints(w, self.arm, m, q)
-        target = [float(v) for v in target]
+        target = [float(v) for v in np.asarray(target, dtype=float) + self.lift]
         err, ang, clipped = math.inf, math.inf, []
         for _ in range(ITERATIONS):
             raw = np.array(w.calculateInverseKinematics(self.arm, m.tcp_link, target, _DOWN,
@@ -123,7 +125,8 @@ def check_program(program: Program, solver: IkSolver | None = None) -> Kinematic
     ``Unreachable`` (exit 1) at the first point the arm cannot reach."""
     t0 = time.perf_counter()
     own = solver is None
-    solver = solver or IkSolver(program.cell.robot.arm)
+    solver = solver or IkSolver(program.cell.robot.arm,
+                                tool_offset_m=program.cell.gripper.tool_offset_m)
     try:
         n = program.cell.motion.samples_per_segment
         q = np.array(solver.model.home)
