@@ -1,4 +1,4 @@
-"""``rap-farm execute PLAN.json [--cell CELL.toml] [--assembly A.json] [--trials N] [--gif FILE] [--planar]``.
+"""``rap-farm execute PLAN.json [--cell C] [--assembly A] [--trials N] [--gif F] [--planar]``.
 
 Runs a plan N times and reports what happened beside R (the plan's ``robustness`` and its
 ``robustness_interval``), the measured success with its 95% Clopper-Pearson interval:

@@ -1,4 +1,4 @@
-"""``rap-farm export PLAN.json -o FILE [--format urscript|waypoints] [--cell CELL.toml] [--assembly A.json]``.
+"""``rap-farm export PLAN.json -o FILE [--format urscript|waypoints] [--cell C] [--assembly A]``.
 
 Turns a plan (``rap-farm plan --out``) into one arm's program (``rap.robot.program``) in the
 robot cell (``--cell``; the shipped ``rap/robot/default_cell.toml`` when left out), checks it

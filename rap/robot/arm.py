@@ -1,9 +1,10 @@
 """The arm models rap-farm knows, and a pybullet world that holds one.
 
 ``ARM_MODELS["panda"]``: the Franka Emika Panda of ``pybullet_data`` (``franka_panda/panda.urdf``,
-shipped in the pybullet wheel, Apache 2.0): 7 revolute joints with the URDF's limits, the fingers closed; the
-suction cup hangs ``gripper.tool_offset_m`` below the ``panda_grasptarget`` link (between the
-fingertips), so the TCP is that far below it along the tool axis. Its base is the cell's base frame (origin, x forward, z up).
+shipped in the pybullet wheel, Apache 2.0): 7 revolute joints with the URDF's limits, the fingers
+closed; the suction cup hangs ``gripper.tool_offset_m`` below the ``panda_grasptarget`` link
+(between the fingertips), so the TCP is that far below it along the tool axis. Its base is the
+cell's base frame (origin, x forward, z up).
 
 ``open_world()`` starts a pybullet physics server in DIRECT mode (no window, no GL), owned by a
 ``BulletClient`` so several can live in one process; ``load_arm(world, model)`` loads the arm

@@ -1,4 +1,4 @@
-"""The program run on the arm in pybullet: parts as extruded prisms with friction, noise along the insertion.
+"""The program run on the arm in pybullet: extruded prisms with friction, noise along the insertion.
 
 ``run_arm(program, assembly, trials, seed)`` executes ``program`` (``rap.robot.program``) ``trials``
 times in a pybullet world (DIRECT mode, no window) holding the cell's arm, the table and the
@@ -23,7 +23,8 @@ Model.
   from approach to start to goal with physics at ``dt_s``, and the planner's actuation noise acts
   on the part perpendicular to the insertion: a force uniform in ``[-eta, eta] x m x
   noise_accel_m_s2`` (g) per step (``SimParams.eta``), in the assembly's plane. The IK is solved
-  every ``ik_every`` steps (2-3 mm of path at most) and the joints interpolated between. At the goal the part is given
+  every ``ik_every`` steps (2-3 mm of path at most) and the joints interpolated between. At the
+  goal the part is given
   ``settle_s`` to come to rest, judged (**inserted** when within ``pos_tol`` of its extent, as
   the planner's success, and ``angle_tol_rad`` of its goal; else **jammed**), released, and the
   parts settle for ``settle_s`` under gravity.

@@ -1,4 +1,4 @@
-"""From the assembly's plane to the robot's base frame: the one rigid placement (and scale) a cell fixes.
+"""From the assembly's plane to the robot's base frame: one rigid placement and scale per cell.
 
 A point ``p = (x, y)`` of the assembly (its units) goes to the base frame (metres) as follows.
 

@@ -2,9 +2,9 @@
 
 ``camera(program, width, height)`` returns a function ``world -> PIL.Image`` that renders a
 pybullet world with its software renderer (TinyRenderer: no GL, works in DIRECT mode) from a
-point in front of the assembly's plane, to the side and above, looking at it, so the arm, the tray and the assembly
-are in view. ``write_gif(frames, path, frame_s)`` writes the frames as a looping GIF
-atomically (an adaptive palette per frame). Cost: about 10-40 ms a frame at 320 x 240.
+point in front of the assembly's plane, to the side and above, looking at it, so the arm, the
+tray and the assembly are in view. ``write_gif(frames, path, frame_s)`` writes the frames as a
+looping GIF atomically (an adaptive palette per frame). Cost: about 10-40 ms a frame at 320 x 240.
 """
 
 from __future__ import annotations

@@ -100,7 +100,8 @@ def grasp_point(assembly: Assembly, part: str, frame: CellFrame, cell: Cell) -> 
     heights = [x * up[0] + y * up[1] for x, y in ring]
     low = min(heights)
     tops = []
-    for (p1, h1), (p2, h2) in zip(zip(ring, heights), zip(ring[1:] + ring[:1], heights[1:] + heights[:1])):
+    nxt = list(zip(ring[1:] + ring[:1], heights[1:] + heights[:1]))
+    for (p1, h1), (p2, h2) in zip(zip(ring, heights), nxt):
         if abs(h1 - h2) > 1e-9 * max(1.0, abs(h1)):
             continue
         mid = ((p1[0] + p2[0]) / 2, (p1[1] + p2[1]) / 2)

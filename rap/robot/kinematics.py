@@ -1,4 +1,4 @@
-"""The kinematic check: every waypoint, and every linear segment along its length, within the arm's reach.
+"""The kinematic check: every waypoint and every point of a linear segment within the arm's reach.
 
 ``check_program(program)`` solves the arm's inverse kinematics (pybullet's damped-least-squares
 solver, ``calculateInverseKinematics``, on the cell's arm model, ``rap.robot.arm``) for every

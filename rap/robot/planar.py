@@ -1,4 +1,4 @@
-"""A whole plan run in the planar simulator, each step starting where the previous steps left the parts.
+"""The whole plan in the planar simulator, each step starting where the earlier ones left the parts.
 
 R multiplies per-step success rates, each measured with the fixed parts exactly in their places.
 ``run_planar(plan, assembly, params, trials, seed)`` measures instead how often the whole plan
@@ -12,9 +12,10 @@ its first failed step (later steps are not tried).
 
 The displaced geometry is rebuilt per step as an ``Assembly`` whose coordinates are the moved
 vertices rounded to multiples of ``1 / DENOMINATOR`` (10^-6 of a unit: far below the tolerances;
-one common denominator keeps the exact convex decomposition's integers small). Randomness: run ``i`` draws from ``SeedSequence(seed).spawn(trials)[i]``, so a
-run does not depend on the others. Returns a ``PlanarOutcome``: successes, per-step reached and
-failed counts, and the plan success's Clopper-Pearson interval (``rap.robot.trials``).
+one common denominator keeps the exact convex decomposition's integers small). Randomness: run
+``i`` draws from ``SeedSequence(seed).spawn(trials)[i]``, so a run does not depend on the others.
+Returns a ``PlanarOutcome``: successes, per-step reached and failed counts, and the plan success's
+Clopper-Pearson interval (``rap.robot.trials``).
 
 Cost: trials x steps single-trial simulations (a few milliseconds each; a 22-step plan, 100 runs,
 about 10-30 s on one core).

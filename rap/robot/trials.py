@@ -3,8 +3,8 @@
 ``rate(successes, trials)`` is a ``Rate``: the count, the trials, the fraction and its exact
 (Clopper-Pearson) interval at ``rap.plan.score_intervals.LEVEL`` (95%), the same construction as
 a step's score interval, so the measured success of a plan and its R are compared on one footing.
-``agrees(rate, interval)``: whether the measured rate's interval and R's interval overlap, and
-whether the measured fraction lies inside R's interval (the issue's target). Pure; O(trials).
+``inside(value, interval)``: whether a measured rate lies in R's interval (the issue's
+target). Pure; O(trials) bisection steps per bound.
 """
 
 from __future__ import annotations

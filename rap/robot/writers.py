@@ -86,7 +86,8 @@ def urscript(program: Program) -> str:
             lines.append(f"  {w.motion}({_pose(w)}, a={w.acceleration:g}, v={w.speed:g})"
                          f"  # {w.name}")
             if w.action:
-                lines.append(f"  set_digital_out({out}, {'True' if w.action == 'grip_on' else 'False'})")
+                on = "True" if w.action == "grip_on" else "False"
+                lines.append(f"  set_digital_out({out}, {on})")
                 lines.append(f"  sleep({GRIP_SETTLE_S:g})")
     lines.append("end")
     return "\n".join(lines) + "\n"
