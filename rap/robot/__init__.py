@@ -9,7 +9,8 @@ Rooms, one idea each:
 * ``arm``: the arm models (pybullet_data's Panda); ``kinematics``: the reach check;
 * ``arm_sim``: the program run on the arm in pybullet; ``planar``: the whole plan run in the
   planar simulator with each step starting where the previous ones left the parts;
-  ``trials``: success counts and their intervals.
+  ``trials``: success counts and their intervals; ``gif``: pictures of the arm run;
+* ``inputs``: a plan document and the assembly it names.
 
 Front door for the CLI, a service or a script: ``export_program`` (below). pybullet is imported
 only by ``arm``, ``kinematics`` and ``arm_sim``.

@@ -63,7 +63,8 @@ def data_path() -> str:
 @contextmanager
 def _quiet():
     """pybullet's C code prints its build time and argv on import and connect: send the
-    process's stdout and stderr to /dev/null meanwhile."""
+    process's stdout and stderr to /dev/null meanwhile (file descriptors 1 and 2 are the
+    process's: another thread's output in those milliseconds is lost too)."""
     sys.stdout.flush()
     sys.stderr.flush()
     saved = [os.dup(1), os.dup(2)]
