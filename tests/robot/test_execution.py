@@ -48,3 +48,15 @@ def test_a_grasp_error_beyond_the_tolerance_jams(stack):
     far = replace(DEFAULT_ARM_SIM, grasp_error_m=0.015)  # the tolerance: 5% of 40 mm
     out = run_arm(build_program(plan, asm, Cell()), asm, trials=2, seed=1, params=far)
     assert out.success.successes < 2 and sum(c.jammed for c in out.steps) >= 1
+
+
+def test_execute_on_the_arm_reports_steps_and_writes_a_gif(run_cli, tmp_path):
+    gif = tmp_path / "run.gif"
+    code, out, _ = run_cli("execute", STACK_PLAN, "--assembly", STACK, "--trials", "1",
+                           "--gif", gif)
+    assert code == 0 and "arm success 1.000" in out and "R = 0.980" in out
+    assert "   3  block3                1         1       0    0" in out
+    from PIL import Image
+
+    with Image.open(gif) as im:
+        assert im.n_frames > 10
