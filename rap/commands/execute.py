@@ -10,7 +10,8 @@ Runs a plan N times and reports what happened beside R (the plan's ``robustness`
   off the cup's place by up to E mm across the insertion (a position-controlled arm's error);
 * ``--planar``: in the planar simulator that scored the plan (``rap.robot.planar``), each step
   starting where the earlier steps of the same run left the parts; per step how often it was
-  tried and failed. Any found plan runs (no arm, no cell).
+  tried and failed, and its measured success (given the earlier steps succeeded) beside its
+  score. Any found plan runs (no arm, no cell).
 
 One root seed (``--seed``) makes the runs reproducible. Exit status: 0 when the runs were made
 (whatever their success); 1 a plan one arm cannot build or reach (arm mode); 2 bad input; 3 a
@@ -62,10 +63,13 @@ def execute_command(
         from rap.robot.planar import run_planar
 
         out = run_planar(plan_r, asm, trials=trials, seed=seed)
-        typer.echo("step  moving          tried  failed")
+        typer.echo("step  moving          tried  failed  measured  score")
         for k, s in enumerate(plan_r.steps):
-            typer.echo(f"{k + 1:>4}  {','.join(s.moving)[:14]:<14}  {out.step_tried[k]:>5}  "
-                       f"{out.step_failed[k]:>6}")
+            tried, failed = out.step_tried[k], out.step_failed[k]
+            measured = f"{1 - failed / tried:.3f}" if tried else "-"
+            score = "-" if s.score is None else f"{s.score:.3f}"
+            typer.echo(f"{k + 1:>4}  {','.join(s.moving)[:14]:<14}  {tried:>5}  {failed:>6}  "
+                       f"{measured:>8}  {score:>5}")
         typer.echo(f"planar sequence success {out.success.text()} beside {_r_text(plan_r)}; "
                    f"{out.seconds:.1f} s")
         return
