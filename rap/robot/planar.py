@@ -94,9 +94,11 @@ def _one_step(assembly: Assembly, op, params: SimParams, rng) -> tuple | None:
 
 
 def run_planar(plan: PlanResult, assembly: Assembly, params: SimParams = DEFAULT_PARAMS,
-               trials: int = 100, seed: int = 0) -> PlanarOutcome:
+               trials: int = 100, seed: int = 0, carry: bool = True) -> PlanarOutcome:
     """Run ``plan`` ``trials`` times (module doc). Steps may move subassemblies (the simulator
-    moves them as one body); their parts then share the final pose."""
+    moves them as one body); their parts then share the final pose. ``carry=False`` is the
+    control: every step starts with the parts exactly in place, as R assumes (the same runs,
+    seeds and stopping rule otherwise)."""
     t0 = time.perf_counter()
     steps = plan.steps
     tried, failed = [0] * len(steps), [0] * len(steps)
@@ -113,7 +115,7 @@ def run_planar(plan: PlanResult, assembly: Assembly, params: SimParams = DEFAULT
                 failed[k] += 1
                 ok = False
                 break
-            for pid in s.moving:
+            for pid in s.moving if carry else ():
                 old = poses.get(pid)
                 poses[pid] = end if old is None else _compose(old, end)
         wins += ok
