@@ -60,3 +60,18 @@ def test_execute_on_the_arm_reports_steps_and_writes_a_gif(run_cli, tmp_path):
 
     with Image.open(gif) as im:
         assert im.n_frames > 10
+
+
+def test_the_control_starts_every_step_exactly_in_place(stack, monkeypatch):
+    from rap.robot import planar
+
+    plan, _, asm = stack
+    seen = []
+    real = planar.moved_assembly
+    monkeypatch.setattr(planar, "moved_assembly", lambda a, poses: seen.append(dict(poses))
+                        or real(a, poses))
+    out = planar.run_planar(plan, asm, trials=3, seed=0, carry=False)
+    assert out.step_tried[0] == 3 and all(p == {} for p in seen)
+    seen.clear()
+    planar.run_planar(plan, asm, trials=3, seed=0)
+    assert any(seen)  # carried: later steps see the earlier parts' poses
