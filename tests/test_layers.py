@@ -123,5 +123,5 @@ def test_no_module_imports_another_modules_private_names():
 
 def test_the_private_names_check_sees_a_private_import(tmp_path):
     src = tmp_path / "m.py"
-    src.write_text("from rap.plan.search import _helper, public\nfrom rap import __version__\n")
-    assert private_imports(src) == [("rap.plan.search", "_helper")]
+    src.write_text("from rap.plan.search.planner import _helper, public\nfrom rap import __version__\n")
+    assert private_imports(src) == [("rap.plan.search.planner", "_helper")]

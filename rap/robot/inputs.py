@@ -17,7 +17,7 @@ from pathlib import Path
 
 from rap.assembly import Assembly
 from rap.errors import InputError
-from rap.plan.result import PlanResult
+from rap.plan.report.result import PlanResult
 
 __all__ = ["load_plan", "find_assembly", "load_plan_and_assembly"]
 

@@ -31,7 +31,7 @@ from fractions import Fraction
 import numpy as np
 
 from rap.assembly import Assembly, Part
-from rap.plan.result import PlanResult
+from rap.plan.report.result import PlanResult
 from rap.robot.trials import Rate, rate
 from rap.sim.params import DEFAULT_PARAMS, SimParams
 from rap.sim.simulator import build_scene, run_trials

@@ -1,6 +1,6 @@
 """A plan as one arm's program: Cartesian waypoints in the robot's base frame, with gripper actions.
 
-``build_program(plan, assembly, cell)`` turns a found plan (``rap.plan.result.PlanResult``, its
+``build_program(plan, assembly, cell)`` turns a found plan (``rap.plan.report.result.PlanResult``, its
 steps carrying their robot poses: ``rap-farm plan --out``) into a ``Program``. Each step moves one
 part from its tray slot into the fixture, through eight waypoints (the tool pointing down,
 ``TOOL_DOWN_ROTVEC``; TCP = the suction cup's centre on the part, ``rap.robot.grasp``):
@@ -41,7 +41,7 @@ import numpy as np
 
 from rap.assembly import Assembly
 from rap.errors import EXIT_INFEASIBLE, InputError, RapError
-from rap.plan.result import PlanResult
+from rap.plan.report.result import PlanResult
 from rap.robot.cell import Cell
 from rap.robot.frames import TOOL_DOWN_ROTVEC, CellFrame, cell_frame, plan_gravity
 from rap.robot.grasp import Grasp, grasp_point, tray_slots

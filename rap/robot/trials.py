@@ -1,7 +1,7 @@
 """Success counts of executed plans and their 95% Clopper-Pearson intervals.
 
 ``rate(successes, trials)`` is a ``Rate``: the count, the trials, the fraction and its exact
-(Clopper-Pearson) interval at ``rap.plan.score_intervals.LEVEL`` (95%), the same construction as
+(Clopper-Pearson) interval at ``rap.plan.report.intervals.LEVEL`` (95%), the same construction as
 a step's score interval, so the measured success of a plan and its R are compared on one footing.
 ``inside(value, interval)``: whether a measured rate lies in R's interval (the issue's
 target). Pure; O(trials) bisection steps per bound.
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rap.plan.score_intervals import LEVEL, clopper_pearson
+from rap.plan.report.intervals import LEVEL, clopper_pearson
 
 __all__ = ["Rate", "rate", "inside"]
 

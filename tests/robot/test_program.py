@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from rap.plan.result import PlanResult
+from rap.plan.report.result import PlanResult
 from rap.robot.cell import Cell, with_
 from rap.robot.program import TwoHandedPlan, build_program
 
