@@ -41,7 +41,8 @@ from rap.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED,
 __all__ = ["app", "main", "register_commands", "stop_on_sigterm"]
 
 COMMAND_MODULES = ("inspect", "show", "generate", "simulate", "label", "check", "train",
-                   "evaluate", "score", "plan", "serve", "experiment", "demo", "import_drawing")
+                   "evaluate", "score", "plan", "serve", "experiment", "demo", "import_drawing",
+                   "export", "execute")
 
 app = typer.Typer(
     name="rap-farm",

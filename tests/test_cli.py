@@ -45,6 +45,10 @@ CASES = [
     (["serve", "--port", "http"], "--port"),
     (["serve", "extra"], "unexpected extra argument"),
     (["import", "drawing.dxf"], "Missing"),
+    (["export", "plan.json"], "Missing"),
+    (["export", "plan.json", "-o", "p.txt", "--format", "pdf"], "--format"),
+    (["execute"], "Missing"),
+    (["execute", "plan.json", "--trials", "0"], "--trials"),
 ]
 
 

@@ -1,0 +1,111 @@
+"""``rap-farm execute PLAN.json [--cell C] [--assembly A] [--trials N] [--gif F] [--planar]``.
+
+Runs a plan N times and reports what happened beside R (the plan's ``robustness`` and its
+``robustness_interval``), the measured success with its 95% Clopper-Pearson interval:
+
+* by default, on the cell's arm in pybullet (``rap.robot.arm_sim``): the program of
+  ``rap-farm export`` (checked by the arm's kinematics first, exit 1 when unreachable), per step
+  how often it was reached, inserted or jammed, and whether the arm touched a placed part;
+  ``--gif FILE`` writes the first run as an animated GIF; ``--grasp-error-mm E`` puts each part
+  off the cup's place by up to E mm across the insertion (a position-controlled arm's error);
+* ``--planar``: in the planar simulator that scored the plan (``rap.robot.planar``), each step
+  starting where the earlier steps of the same run left the parts; per step how often it was
+  tried and failed, and its measured success (given the earlier steps succeeded) beside its
+  score. Any found plan runs (no arm, no cell).
+
+One root seed (``--seed``) makes the runs reproducible. Exit status: 0 when the runs were made
+(whatever their success); 1 a plan one arm cannot build or reach (arm mode); 2 bad input; 3 a
+file that cannot be written. Cost: arm about 0.2-2 s a run (3 to 22 steps), planar 5-300 ms.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+__all__ = ["register", "execute_command"]
+
+
+def _r_text(plan) -> str:
+    if plan.robustness is None:
+        return "R unknown (the plan carries no scores)"
+    lo_hi = plan.robustness_interval
+    iv = "" if lo_hi is None else f" [{lo_hi[0]:.3f}, {lo_hi[1]:.3f}]"
+    return f"R = {plan.robustness:.3f}{iv}"
+
+
+def execute_command(
+    plan: Path = typer.Argument(..., metavar="PLAN.json", help="A plan from rap-farm plan --out."),
+    cell: Path = typer.Option(None, "--cell", help="Robot cell TOML [default: the shipped cell]."),
+    assembly: Path = typer.Option(None, "--assembly",
+                                  help="The plan's assembly file [default: NAME.json beside the "
+                                       "plan]."),
+    trials: int = typer.Option(20, "--trials", min=1, max=100000, help="Runs of the whole plan."),
+    seed: int = typer.Option(0, "--seed", help="Root seed of the runs' noise."),
+    gif: Path = typer.Option(None, "--gif", help="Write the first arm run as an animated GIF."),
+    grasp_error_mm: float = typer.Option(0.0, "--grasp-error-mm", min=0.0, max=100.0,
+                                         help="Arm: each part sits off the cup's place by up to "
+                                              "this across the insertion (pick, calibration "
+                                              "error) [default: 0]."),
+    planar: bool = typer.Option(False, "--planar",
+                                help="Run in the planar simulator, noise carried from step to "
+                                     "step, instead of on the arm."),
+) -> None:
+    """Execute a plan N times (on the simulated arm, or --planar) and report its success beside R."""
+    from rap.errors import InputError, StorageError
+    from rap.robot.inputs import load_plan_and_assembly
+
+    plan_r, _doc, asm = load_plan_and_assembly(plan, assembly)
+    if planar:
+        if gif is not None:
+            raise InputError("--gif: pictures are of the arm; leave out --planar")
+        from rap.robot.planar import run_planar
+
+        out = run_planar(plan_r, asm, trials=trials, seed=seed)
+        typer.echo("step  moving          tried  failed  measured  score")
+        for k, s in enumerate(plan_r.steps):
+            tried, failed = out.step_tried[k], out.step_failed[k]
+            measured = f"{1 - failed / tried:.3f}" if tried else "-"
+            score = "-" if s.score is None else f"{s.score:.3f}"
+            typer.echo(f"{k + 1:>4}  {','.join(s.moving)[:14]:<14}  {tried:>5}  {failed:>6}  "
+                       f"{measured:>8}  {score:>5}")
+        typer.echo(f"planar sequence success {out.success.text()} beside {_r_text(plan_r)}; "
+                   f"{out.seconds:.1f} s")
+        return
+    from dataclasses import replace
+
+    from rap.robot.arm_sim import DEFAULT_ARM_SIM, run_arm
+    from rap.robot.cell import load_cell
+    from rap.robot.kinematics import check_program
+    from rap.robot.program import build_program
+
+    program = build_program(plan_r, asm, load_cell(cell))
+    report = check_program(program)
+    frames, shoot = None, None
+    if gif is not None:
+        from rap.robot.gif import camera
+
+        frames, shoot = [], camera(program)
+    params = replace(DEFAULT_ARM_SIM, grasp_error_m=grasp_error_mm / 1000.0)
+    out = run_arm(program, asm, trials=trials, seed=seed, params=params, frames=frames,
+                  camera=shoot)
+    typer.echo(f"kinematic check: {len(program.waypoints)} waypoints reached by the "
+               f"{program.cell.robot.arm} ({report.solves} IK solves)")
+    typer.echo("step  part            reached  inserted  jammed  arm touched a placed part")
+    for s, c in zip(program.steps, out.steps):
+        typer.echo(f"{s.index:>4}  {s.part[:14]:<14}  {c.reached:>7}  {c.inserted:>8}  "
+                   f"{c.jammed:>6}  {c.arm_contacts:>3}")
+    typer.echo(f"arm success {out.success.text()} beside {_r_text(plan_r)}; {out.seconds:.1f} s")
+    if gif is not None:
+        from rap.robot.gif import write_gif
+
+        try:
+            write_gif(frames, gif)
+        except OSError as exc:
+            raise StorageError(f"--gif {gif}: cannot write ({exc.strerror or exc})") from None
+        typer.echo(f"{gif}: {len(frames)} frames of the first run")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("execute")(execute_command)
