@@ -125,14 +125,14 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
         line += (f"; {level} {interval_text(result.robustness_interval, 3)} from "
                  f"{result.trials} trials a step, Bonferroni")
     line += ")"
-    if result.expected_failures is not None and result.steps:
-        weak = ", ".join(f"{i} ({result.steps[i - 1].score:.3f})" for i in result.weakest_steps())
-        line += (f"\nexpected failed steps: {result.expected_failures:.2f} of {len(result.steps)}"
-                 + (f"; weakest: step {weak}" if weak else ""))
     if result.method == "random" and "mean_robustness" in st:
         line += (f"; mean over {st['samples']} random sequences = {st['mean_robustness']:.4f} "
                  f"(shown: the sample closest to the mean)")
     console.print(line)
+    if result.expected_failures is not None and result.steps:  # beside R: where it fails
+        weak = ", ".join(f"{i} ({result.steps[i - 1].score:.3f})" for i in result.weakest_steps())
+        console.print(f"expected failed steps: {result.expected_failures:.2f} of "
+                      f"{len(result.steps)}" + (f"; weakest: step {weak}" if weak else ""))
     if st.get("constraints"):
         from rap.plan.cell.constraints import CellConstraints
 
