@@ -562,6 +562,11 @@ def test_export_answers_the_program_as_an_attachment(service):
     assert status == 422 and json.loads(text)["error"].startswith("the plan has no fixture")
     status, _, text = _export(service, b"[]")
     assert status == 400 and json.loads(text)["error"].startswith("request body must be")
+    schema = json.loads(_get(service + "/openapi.json"))["paths"]["/export"]["post"]
+    body_schema = schema["requestBody"]["content"]["application/json"]["schema"]
+    assert body_schema["properties"]["format"]["enum"] == ["urscript", "waypoints-csv",
+                                                           "waypoints-json"]
+    assert "422" in schema["responses"]
 
 
 def test_the_page_downloads_the_robot_program(page, service, tmp_path):
