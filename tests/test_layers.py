@@ -86,7 +86,7 @@ def test_layers_import_downward_only():
 ORCHESTRATION = ("rap.farm", "rap.service")
 # modules of the orchestration packages that must stay free of ray (imported by tests and the CLI
 # without starting anything)
-RAY_FREE = ("rap.service.api", "rap.service.examples")
+RAY_FREE = ("rap.service.api", "rap.service.examples", "rap.service.robot_program")
 
 
 def test_only_the_orchestration_layer_imports_ray():

@@ -19,7 +19,7 @@ from rap.assembly import Assembly
 from rap.errors import InputError
 from rap.plan.report.result import PlanResult
 
-__all__ = ["load_plan", "find_assembly", "load_plan_and_assembly"]
+__all__ = ["load_plan", "plan_of", "check_assembly", "find_assembly", "load_plan_and_assembly"]
 
 
 def load_plan(path: str | Path) -> tuple[PlanResult, dict]:
@@ -31,16 +31,22 @@ def load_plan(path: str | Path) -> tuple[PlanResult, dict]:
         raise InputError(f"{path}: cannot read the plan ({exc.strerror or exc})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"{path}: not a JSON plan document ({exc})") from None
+    return plan_of(doc, str(path)), doc
+
+
+def plan_of(doc, source: str) -> PlanResult:
+    """The found plan of a parsed plan document; ``source`` names it in errors (a file, or the
+    service's ``plan`` key). Raises ``InputError``."""
     if not isinstance(doc, dict):
-        raise InputError(f"{path}: not a plan document (a JSON object from rap-farm plan --out)")
+        raise InputError(f"{source}: not a plan document (a JSON object from rap-farm plan --out)")
     try:
         plan = PlanResult.from_json(doc)
     except ValueError as exc:
-        raise InputError(f"{path}: {exc}") from None
+        raise InputError(f"{source}: {exc}") from None
     if not plan.found:
-        raise InputError(f"{path}: the plan found no sequence ({plan.message or plan.status.value})"
-                         f": nothing to build")
-    return plan, doc
+        raise InputError(f"{source}: the plan found no sequence ("
+                         f"{plan.message or plan.status.value}): nothing to build")
+    return plan
 
 
 def find_assembly(plan_path: str | Path, name: str) -> Path | None:
@@ -65,10 +71,16 @@ def load_plan_and_assembly(plan_path: str | Path, assembly_path: str | Path | No
                              f"carry its geometry, and no {plan.assembly}.json lies beside it: "
                              f"give the assembly file with --assembly")
     assembly = load_assembly(assembly_path)
+    check_assembly(plan, assembly, f"--assembly {assembly_path}")
+    return plan, doc, assembly
+
+
+def check_assembly(plan: PlanResult, assembly: Assembly, source: str) -> None:
+    """Raise ``InputError`` (naming ``source``) unless ``assembly`` holds every part the plan
+    moves or fixes."""
     ids = set(assembly.ids)
     for k, s in enumerate(plan.steps, 1):
         missing = sorted(set(s.moving + s.fixed) - ids)
         if missing:
-            raise InputError(f"--assembly {assembly_path}: has no part {missing[0]!r} of the "
-                             f"plan's step {k}: not the plan's assembly")
-    return plan, doc, assembly
+            raise InputError(f"{source}: has no part {missing[0]!r} of the plan's step {k}: not "
+                             f"the plan's assembly")

@@ -33,6 +33,7 @@ offline):
   (``rap.service.api.read_upload``); 200 with its assembly JSON (what ``rap-farm import`` writes).
 * ``POST /inspect?name=FILE``: the same, and its NDBG: ``{"assembly": <assembly JSON>, "cells":
   [{"kind", "direction", "partitions"}]}`` (``inspect_document``), what the page draws.
+* ``POST /export``: a plan's checked robot program as an attachment (``rap.service.robot_program``).
 
 Bad requests get a 4xx status and ``{"error": "<one line>"}``: 400 for a body that is not JSON or
 not an object of those keys, an invalid assembly (the one-line ``AssemblyError`` text of the CLI,
@@ -76,7 +77,7 @@ from pathlib import Path
 
 from fastapi import Query, Request, Security
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse
+from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
@@ -91,6 +92,7 @@ from rap.plan.scoring.scorer import Budget
 
 from rap.service.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
                           BadRequest, ServeConfig, parse_plan_request, read_upload)
+from rap.service import robot_program
 from rap.service.examples import UnknownExample, example, example_list
 
 __all__ = ["PlanningApp", "build_app", "inspect_document", "APP_NAME", "STATIC_DIR",
@@ -366,6 +368,22 @@ class PlanningApp:
                                    f"within {budget:g} s", f"the NDBG of {got.name}",
                                    inspect_document, got)
         return doc if isinstance(doc, JSONResponse) else JSONResponse(doc)
+
+    @api.post("/export", summary="A plan as a robot program, checked by the arm's kinematics",
+              openapi_extra=robot_program.EXPORT_OPENAPI)
+    async def export(self, request: Request,
+                     creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        """The plan's robot program as an attachment (``rap.service.robot_program``)."""
+        read = await self._read_request(request, creds, "the export request", lambda body: (
+            robot_program.parse_export_request(body, max_parts=self.config.max_parts,
+                                               max_vertices=self.config.max_vertices)))
+        if isinstance(read, JSONResponse):
+            return read
+        got = await self._off_loop(self._executor, self.config.plan_budget_s + self.config.
+                                   answer_grace_s, "the robot program took longer than its budget",
+                                   "the robot program", robot_program.program_file, read)
+        return got if isinstance(got, JSONResponse) else Response(
+            got.text, media_type=got.media_type, headers=got.headers)
 
     def __del__(self):
         try:

@@ -1,5 +1,5 @@
 """The planning page at ``/`` of ``rap-farm serve`` in a real headless browser, and the endpoints
-behind it (``POST /import``, ``POST /inspect``), and ``/docs`` offline.
+behind it (``POST /import``, ``POST /inspect``, ``POST /export``), and ``/docs`` offline.
 
 The service is the one of tests/service/test_http_app.py (a subprocess on a free loopback port, with a
 token); the browser is Debian's ``chromium`` driven by Playwright (``executable_path``: Playwright's
@@ -523,3 +523,80 @@ def test_a_plan_in_the_cell_obeys_it_and_says_so(page, service, tmp_path):
     svg = ET.parse(_download(page, "#dl-svg", tmp_path / "cell-storyboard.svg")).getroot()
     texts = ["".join(t.itertext()) for t in svg.findall("{http://www.w3.org/2000/svg}text")]
     assert "robot cell: plate fixed in the fixture, one part per step" in texts[1]
+
+
+# -- the robot program (POST /export) ---------------------------------------------------------------
+
+def _export(url: str, body: bytes, token: str | None = TOKEN):
+    """(status, headers, text) of a ``POST /export``."""
+    import urllib.error
+
+    headers = {"Content-Type": "application/json"}
+    if token:
+        headers["Authorization"] = f"Bearer {token}"
+    req = urllib.request.Request(url + "/export", data=body, headers=headers, method="POST")
+    try:
+        with urllib.request.urlopen(req, timeout=120) as r:
+            return r.status, r.headers, r.read().decode()
+    except urllib.error.HTTPError as exc:
+        return exc.code, exc.headers, exc.read().decode()
+
+
+def test_export_answers_the_program_as_an_attachment(service):
+    """The stack's plan (tests/robot/data) as waypoints, as ``rap-farm export`` writes them; the
+    token as for /plan; a plan without a fixture a 422 with the one-arm line; bad input a 400."""
+    from tests.robot.cases import STACK, STACK_PLAN
+
+    asm, plan = json.loads(STACK.read_text()), json.loads(STACK_PLAN.read_text())
+    body = json.dumps({"assembly": asm, "plan": plan, "format": "waypoints-csv"}).encode()
+    status, headers, text = _export(service, body)
+    assert status == 200, text
+    assert headers["Content-Disposition"] == 'attachment; filename="stack-waypoints.csv"'
+    assert headers["Content-Type"].startswith("text/csv")
+    assert text.startswith("step,name,motion,part,x_m,") and len(text.splitlines()) == 1 + 24
+    assert json.loads(headers["X-Program-Details"])["waypoints"] == 24
+    status, _, text = _export(service, body, token=None)
+    assert status == 401 and "bearer token" in json.loads(text)["error"]
+    plan["constraints"]["base"] = None
+    status, _, text = _export(service, json.dumps({"assembly": asm, "plan": plan}).encode())
+    assert status == 422 and json.loads(text)["error"].startswith("the plan has no fixture")
+    status, _, text = _export(service, b"[]")
+    assert status == 400 and json.loads(text)["error"].startswith("request body must be")
+    schema = json.loads(_get(service + "/openapi.json"))["paths"]["/export"]["post"]
+    body_schema = schema["requestBody"]["content"]["application/json"]["schema"]
+    assert body_schema["properties"]["format"]["enum"] == ["urscript", "waypoints-csv",
+                                                           "waypoints-json"]
+    assert "422" in schema["responses"]
+
+
+def test_the_page_downloads_the_robot_program(page, service, tmp_path):
+    """stack.json planned on the page without a base part: the robot program is refused in the
+    service's line (a second fixture); planned with the plate in the fixture and one arm, the
+    download is the URScript program (a def ... end that the grammar of tests/robot accepts)."""
+    from tests.robot.test_writers import parse_urscript
+
+    _inspect(page, service, CELLS / "stack.json")
+    state, _ = _plan_sent(page)
+    assert state == "planned" and page.is_visible("#dl-program"), page.inner_text("#message")
+    with page.expect_request(lambda r: r.url.endswith("/export")) as sent:
+        page.click("#dl-program")
+    page.wait_for_selector("body[data-program=refused]", timeout=60_000)
+    sent_body = json.loads(sent.value.post_data)
+    assert set(sent_body) == {"assembly", "plan", "format"} and sent_body["format"] == "urscript"
+    message = page.inner_text("#message")
+    assert message.startswith("robot program: the plan has no fixture (made without --base)")
+    assert "a two-handed step needs a second fixture" in message and "\n" not in message
+    page.select_option("#cell-base", "plate")
+    page.check("#cell-linear")
+    state, _ = _plan_sent(page)
+    assert state == "planned" and page.is_hidden("#message"), page.inner_text("#message")
+    with page.expect_download() as info:
+        page.click("#dl-program")
+    assert info.value.suggested_filename == "stack.script"
+    text = (Path(info.value.path())).read_text()
+    code = [ln for ln in text.splitlines() if not ln.startswith("#")]
+    assert code[0] == "def rap_farm_program():" and code[-1] == "end"
+    assert parse_urscript(text) == [] and text.count("set_digital_out(0, True)") == 3
+    page.wait_for_selector("body[data-program=saved]", timeout=10_000)
+    assert page.is_hidden("#message")
+    page.screenshot(path=str(tmp_path / "page-program.png"), full_page=True)

@@ -15,6 +15,11 @@
 // per assembly shipped in the package (GET /examples, no token needed); a click fetches its JSON
 // (GET /examples/NAME) and reads it exactly as a dropped NAME.json. Every request carries
 // the token typed in the header (kept in sessionStorage) as "Authorization: Bearer <token>".
+// Beside the storyboard, "robot program" asks POST /export for one arm's program of the plan shown
+// (URScript or waypoints, checked by the arm's kinematics) and saves the answer under the name the
+// service gives; a refusal (a plan made without a base part in the fixture, a step out of reach)
+// is the service's one line where the page shows its errors. body[data-program] says how the last
+// one went: asking, saved, refused.
 // body[data-state] says where the page is: idle, reading, inspected, planning, planned, error.
 "use strict";
 
@@ -32,7 +37,8 @@
   const PLAY_MS = 1400;
 
   // gen: bumped by every file and plan asked for, so that a late answer to an older one is dropped
-  const state = { inspected: null, geom: null, plan: null, details: null,
+  // planText: the plan as the service answered it, sent back to POST /export unchanged
+  const state = { inspected: null, geom: null, plan: null, planText: null, details: null,
     step: 0, timer: null, fileAt: null, gen: 0 };
 
   // -- requests -----------------------------------------------------------------------------------
@@ -337,7 +343,7 @@
     stop();
     say("");
     state.fileAt = performance.now();
-    state.plan = null;
+    state.plan = state.planText = null;
     state.inspected = null;
     $("plan").disabled = true;
     $("plan-status").textContent = "";
@@ -422,12 +428,13 @@
       `"method":${JSON.stringify($("method").value)},"seed":${seed}` +
       (cell ? `,"constraints":${JSON.stringify(cell)}` : "") + "}";
     try {
-      const { doc, headers } = await request("/plan", { method: "POST", body,
+      const { doc, text, headers } = await request("/plan", { method: "POST", body,
         headers: { "Content-Type": "application/json" } });
       if (gen !== state.gen) return;
       try { state.details = JSON.parse(headers.get("X-Plan-Details") || "null"); }
       catch (e) { state.details = null; }
       state.plan = doc;
+      state.planText = text;
       showPlan(doc, (performance.now() - asked) / 1000);
       setState("planned");
     } catch (e) {
@@ -446,6 +453,7 @@
     const timing = `answered in ${roundTrip.toFixed(2)} s` +
       (total === null ? "" : `, ${total.toFixed(2)} s from the file to this plan`);
     document.body.dataset.fileToPlanS = total === null ? "" : total.toFixed(3);
+    delete document.body.dataset.program;
     // the robot cell the plan obeys, and what its scores cover (the plan's "score_note")
     const cell = doc.constraints ? ` (robot cell: ${cellText(doc.constraints)})` : "";
     $("plan-status").title = doc.score_note || "";
@@ -641,6 +649,34 @@
     img.src = "data:image/svg+xml;charset=utf-8," + encodeURIComponent(sb.text);
   }
 
+  // -- the robot program ----------------------------------------------------------------------------
+  // POST /export with the assembly and the plan's own text (no number changes on the way); the
+  // answer is the program file, saved under the name its Content-Disposition gives
+  async function downloadProgram() {
+    if (!state.plan || !state.planText || !state.inspected) return;
+    const gen = state.gen, format = $("program-format").value;
+    say("");
+    document.body.dataset.program = "asking";
+    $("dl-program").disabled = true;
+    const body = `{"assembly":${JSON.stringify(state.inspected.assembly)},` +
+      `"plan":${state.planText},"format":${JSON.stringify(format)}}`;
+    try {
+      const { text, headers } = await request("/export", { method: "POST", body,
+        headers: { "Content-Type": "application/json" } });
+      if (gen !== state.gen) return;
+      const named = /filename="([^"]+)"/.exec(headers.get("Content-Disposition") || "");
+      save(new Blob([text], { type: headers.get("Content-Type") || "text/plain" }),
+        named ? named[1] : `${stem()}-${format}.txt`);
+      document.body.dataset.program = "saved";
+    } catch (e) {
+      if (gen !== state.gen) return;
+      say("robot program: " + e.message);
+      document.body.dataset.program = "refused";
+    } finally {
+      $("dl-program").disabled = false;
+    }
+  }
+
   // -- wiring ---------------------------------------------------------------------------------------
   function wire() {
     $("token").value = token();
@@ -681,6 +717,7 @@
     $("dl-svg").addEventListener("click", () => save(new Blob([storyboardSvg().text],
       { type: "image/svg+xml" }), stem() + "-storyboard.svg"));
     $("dl-png").addEventListener("click", downloadPng);
+    $("dl-program").addEventListener("click", downloadProgram);
   }
 
   wire();

@@ -1,0 +1,223 @@
+"""The service's robot program (``POST /export``): a plan and its assembly in, an arm's program out.
+
+``parse_export_request(body)`` reads a ``POST /export`` body, ``{"assembly": <assembly JSON, as
+POST /plan takes it>, "plan": <the plan document POST /plan answered>, "format": "urscript" |
+"waypoints-csv" | "waypoints-json" (default "urscript"), "cell": <a cell file's TOML text>
+(optional; default the shipped cell, rap/robot/default_cell.toml)}``, into an ``ExportRequest``, or
+raises ``BadRequest`` (400, one line): a body that is not JSON or not an object of those keys, an
+invalid assembly (the CLI's ``AssemblyError`` line; 413 past ``max_parts`` parts), a plan document
+that is not a found plan, or not a plan of that assembly (a part it lacks; steps that do not build
+it, ``is_assembly_order``), a number in the plan that is not a finite float, an unknown format, a
+cell that is not TOML or has a bad key (``rap.robot.cell``'s line naming the key).
+
+``program_file(request)`` builds the program as ``rap-farm export`` does (``rap.robot.program.
+build_program``, then the arm's kinematic check ``rap.robot.kinematics.check_program``, then
+``rap.robot.writers``) and returns a ``ProgramFile``: the text, its attachment file name
+(``ASSEMBLY.script``, ``ASSEMBLY-waypoints.csv``, ``ASSEMBLY-waypoints.json``), its media type,
+and the check's figures. Refusals are ``BadRequest`` with the CLI's one line: 422 for a plan one
+arm cannot build (``TwoHandedPlan``: made without a fixture, ``plan --base``, or with a step that
+needs a second hand) and for a step out of the arm's reach (``Unreachable``: the step, the
+waypoint, the point and the limit); 400 for a part the suction cup finds no place on.
+
+No ray and no fastapi here (``rap.service.http_app`` serves it, off its event loop); pybullet is
+imported on the first ``program_file``. Cost: one JSON parse and the assembly's exact validation,
+then O(waypoints) for the program and about 50 IK solves a step for the check (0.3 ms each; the
+22-step wall in under 1 s, docs/ROBOT.md).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass, replace
+from decimal import Decimal, InvalidOperation
+
+from rap.assembly import LIMITS, Assembly, AssemblyError, json_error_reason
+from rap.errors import InputError
+from rap.io import parse_assembly
+from rap.plan.report.result import PlanResult, is_assembly_order
+from rap.robot.cell import Cell, parse_cell
+from rap.robot.inputs import check_assembly, plan_of
+from rap.service.api import BadRequest
+
+__all__ = ["EXPORT_KEYS", "EXPORT_FORMATS", "DEFAULT_FORMAT", "PROGRAM_DETAILS_HEADER",
+           "ExportRequest", "ProgramFile", "parse_export_request", "program_file",
+           "EXPORT_OPENAPI"]
+
+EXPORT_KEYS = ("assembly", "plan", "format", "cell")
+#: format -> (the file name's ending after the assembly's name, media type)
+EXPORT_FORMATS = {"urscript": (".script", "text/plain"),
+                  "waypoints-csv": ("-waypoints.csv", "text/csv"),
+                  "waypoints-json": ("-waypoints.json", "application/json")}
+DEFAULT_FORMAT = "urscript"
+PROGRAM_DETAILS_HEADER = "X-Program-Details"  # {"steps", "waypoints", "solves", ...} of the check
+
+
+@dataclass(frozen=True)
+class ExportRequest:
+    """A read ``POST /export`` body: the assembly, the found plan, the format and the cell."""
+
+    assembly: Assembly
+    plan: PlanResult
+    format: str
+    cell: Cell
+
+
+@dataclass(frozen=True)
+class ProgramFile:
+    """What ``POST /export`` answers: the program's ``text``, its attachment ``filename``, its
+    ``media_type`` and ``details`` (steps, waypoints, IK solves, worst errors, seconds)."""
+
+    text: str
+    filename: str
+    media_type: str
+    details: dict
+
+    @property
+    def headers(self) -> dict:
+        """The answer's headers: the attachment's name and the check's figures."""
+        return {"Content-Disposition": f'attachment; filename="{self.filename}"',
+                PROGRAM_DETAILS_HEADER: json.dumps(self.details, separators=(",", ":"))}
+
+
+def _no_constant(name: str):
+    raise ValueError(f"non-finite number {name} is not allowed")
+
+
+def _floats(value, where: str = "plan"):
+    """The plan document with its decimals as floats (the plan's numbers are floats: poses,
+    scores); a decimal beyond a float's range is a ``BadRequest``."""
+    if isinstance(value, Decimal):
+        f = float(value)
+        if not math.isfinite(f):
+            raise BadRequest(400, f"{where}: number {value} is out of range")
+        return f
+    if isinstance(value, dict):
+        return {k: _floats(v, where) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_floats(v, where) for v in value]
+    return value
+
+
+def _cell(raw) -> Cell:
+    if raw is None:
+        return Cell()
+    if not isinstance(raw, str):
+        raise BadRequest(400, "cell: must be a cell file's TOML text (a string), e.g. "
+                              "\"[assembly]\\nposition_m = [0.45, 0.1]\"")
+    try:
+        doc = tomllib.loads(raw)
+    except tomllib.TOMLDecodeError as exc:
+        raise BadRequest(400, f"cell: not a TOML file ({exc})") from None
+    try:
+        return parse_cell(doc, "cell")
+    except InputError as exc:
+        raise BadRequest(400, str(exc)) from None
+
+
+def parse_export_request(body: bytes, *, max_parts: int = LIMITS.max_parts,
+                         max_vertices: int = 20_000) -> ExportRequest:
+    """The ``ExportRequest`` of a ``POST /export`` body, or ``BadRequest`` (module doc)."""
+    try:
+        doc = json.loads(body, parse_float=Decimal, parse_int=int, parse_constant=_no_constant)
+    except RecursionError:
+        raise BadRequest(400, "request body is nested too deeply") from None
+    except (ValueError, InvalidOperation) as exc:
+        raise BadRequest(400, f"request body is not valid JSON: {json_error_reason(exc)}") from None
+    if not isinstance(doc, dict):
+        raise BadRequest(400, "request body must be a JSON object {\"assembly\": {...}, "
+                              "\"plan\": {...}, \"format\": \"urscript\"}")
+    unknown = sorted(set(doc) - set(EXPORT_KEYS))
+    if unknown:
+        raise BadRequest(400, f"unknown key {unknown[0]!r} (expected {', '.join(EXPORT_KEYS)})")
+    for key, what in (("assembly", "the assembly JSON object"),
+                      ("plan", "the plan document POST /plan answered")):
+        if key not in doc:
+            raise BadRequest(400, f"missing key {key!r} ({what})")
+    fmt = doc.get("format", DEFAULT_FORMAT)
+    if not isinstance(fmt, str) or fmt not in EXPORT_FORMATS:
+        raise BadRequest(400, f"format {fmt!r}: choose one of {', '.join(EXPORT_FORMATS)}")
+    cell = _cell(doc.get("cell"))
+    raw = doc["assembly"]
+    parts = raw.get("parts") if isinstance(raw, dict) else None
+    if isinstance(parts, list) and len(parts) > max_parts:
+        raise BadRequest(413, f"assembly: {len(parts)} parts; this service reads at most "
+                              f"{max_parts}")
+    try:
+        assembly = parse_assembly(raw, source="assembly", default_name="assembly",
+                                  limits=replace(LIMITS, max_vertices=max_vertices))
+    except AssemblyError as exc:
+        raise BadRequest(400, str(exc)) from None
+    except RecursionError:
+        raise BadRequest(400, "assembly: nested too deeply") from None
+    try:
+        plan = plan_of(_floats(doc["plan"]), "plan")
+        check_assembly(plan, assembly, "assembly")
+    except InputError as exc:
+        raise BadRequest(400, str(exc)) from None
+    problem = is_assembly_order(plan.steps, assembly.ids)
+    if problem is not None:
+        raise BadRequest(400, f"plan: {problem}: not a plan of this assembly")
+    return ExportRequest(assembly, plan, fmt, cell)
+
+
+def _stem(name: str) -> str:
+    return re.sub(r"[^\w.-]+", "_", name, flags=re.ASCII).strip("._")[:100] or "program"
+
+
+def program_file(req: ExportRequest) -> ProgramFile:
+    """The program of ``req``, checked by the arm's kinematics (module doc). Raises
+    ``BadRequest``: 422 for a plan one arm cannot build or a step out of reach, 400 for no
+    place for the cup."""
+    from rap.robot.kinematics import Unreachable, check_program
+    from rap.robot.program import TwoHandedPlan, build_program
+    from rap.robot.writers import urscript, waypoints_csv, waypoints_json
+
+    try:
+        program = build_program(req.plan, req.assembly, req.cell)
+        report = check_program(program)
+    except (TwoHandedPlan, Unreachable) as exc:
+        raise BadRequest(422, str(exc)) from None
+    except InputError as exc:
+        raise BadRequest(400, str(exc)) from None
+    write = {"urscript": urscript, "waypoints-csv": waypoints_csv,
+             "waypoints-json": waypoints_json}[req.format]
+    ending, media = EXPORT_FORMATS[req.format]
+    details = {"format": req.format, "steps": len(program.steps),
+               "waypoints": len(program.waypoints), "fixture": program.fixture,
+               "plane": program.frame.plane, "arm": program.cell.robot.arm,
+               "solves": report.solves, "worst_position_m": report.worst_position_m,
+               "worst_angle_rad": report.worst_angle_rad, "check_seconds": report.seconds}
+    return ProgramFile(write(program), _stem(req.plan.assembly) + ending, media, details)
+
+
+# -- the request body in the OpenAPI document (the endpoint reads the raw body itself) ----------
+EXPORT_OPENAPI = {
+    "requestBody": {
+        "required": True,
+        "content": {"application/json": {"schema": {
+            "type": "object", "required": ["assembly", "plan"], "additionalProperties": False,
+            "properties": {
+                "assembly": {"type": "object", "description": "The assembly JSON, as POST /plan "
+                             "takes it"},
+                "plan": {"type": "object", "description": "The plan document POST /plan "
+                         "answered (`rap-farm plan --out`), made with a fixture (constraints."
+                         "base) and one part per step (constraints.linear)"},
+                "format": {"type": "string", "enum": list(EXPORT_FORMATS),
+                           "default": DEFAULT_FORMAT},
+                "cell": {"type": "string", "description": "A cell file's TOML text (docs/ROBOT.md"
+                         "); default: the shipped cell, rap/robot/default_cell.toml"}}}}},
+    },
+    "responses": {"200": {"description": "The program as an attachment: URScript "
+                                         "(ASSEMBLY.script) or waypoints (ASSEMBLY-waypoints.csv, "
+                                         "-waypoints.json); the header X-Program-Details carries "
+                                         "the kinematic check's figures"},
+                  "400": {"description": "Malformed request, invalid assembly, plan or cell"},
+                  "401": {"description": "Missing or wrong bearer token"},
+                  "413": {"description": "Body or assembly too large"},
+                  "422": {"description": "A plan one arm cannot build (a two-handed step needs a "
+                                         "second fixture), or a step out of the arm's reach"},
+                  "503": {"description": "Reading or the program past its time budget"}},
+}
