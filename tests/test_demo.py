@@ -88,7 +88,8 @@ def test_demo_runs_the_small_pipeline_then_the_shipped_model_against_sim_only(tm
         assert f"{what} {out / name}" in said, what
         assert (out / name).exists(), name
     assert (out / "storyboard.png").read_bytes()[:4] == b"\x89PNG"
-    assert sum(1 for _ in (out / "dataset").glob("*/part-*.parquet")) == 6  # one per assembly
+    # every assembly committed (how many shards depends on the flush timer, i.e. the load)
+    assert len({p.parent.name for p in (out / "dataset").glob("*/part-*.parquet")}) == 6
     table = (out / "plan.md").read_text()
     assert table.startswith(f"# packing-s100: search, shipped model, R = "
                             f"{search['robustness']:.4f}\n")
