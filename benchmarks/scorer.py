@@ -1,7 +1,7 @@
 """The default scorer against the CNN alone on a whole AND/OR graph: operations a second, one run.
 
     python benchmarks/scorer.py [--assembly assemblies/cells/brick-wall-22.json]
-        [--batch subassembly|N] [--repeats 3]
+        [--batch subassembly|N] [--repeats 3] [--blas-threads N]
 
 Enumerates the assembly's AND/OR graph (``rap.plan.graph.reachable``, as
 ``benchmarks/cnn_operations.py`` does; 8,903 operations on the 22-brick wall) and scores every
@@ -45,7 +45,14 @@ def main() -> None:
     ap.add_argument("--model", default=str(ROOT / "rap" / "data" / "default_model.pt"))
     ap.add_argument("--batch", default="subassembly")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--blas-threads", type=int, default=None,
+                    help="limit BLAS threads (threadpoolctl) for both scorers [default: as plan "
+                         "runs, no limit]")
     a = ap.parse_args()
+    if a.blas_threads:
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(limits=a.blas_threads, user_api="blas")
     problem = PlanningProblem(load_assembly(a.assembly), SimParams())
     t = time.perf_counter()
     graph = reachable(problem, 10**6)
@@ -58,7 +65,8 @@ def main() -> None:
     n = sum(len(b) for b in batches)
     print(f"{Path(a.assembly).name}: {len(graph)} subassemblies, {n} operations in {len(batches)} "
           f"calls of {n / len(batches):.1f} (graph built in {time.perf_counter() - t:.2f} s); "
-          f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}")
+          f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}, BLAS threads "
+          f"{a.blas_threads or 'unlimited'}")
 
     def run(engine: str):
         scorer = OperationPredictor.load(a.model, engine=engine)

@@ -1,4 +1,4 @@
-"""The default scorer: a descriptor network screens operations, the CNN is asked where it is unsure.
+"""The default scorer: a descriptor model screens operations, the CNN is asked where it is unsure.
 
 ``CascadeScorer(cnn, model)`` answers what ``OperationPredictor`` answers (the ``CnnBackend`` of
 ``rap.plan.scoring.scorer``: ``prob_high``, ``expected_score``, ``prob_high_and_expected``; and
@@ -7,22 +7,28 @@ and core sharing, passed to the CNN):
 
 1. the batch's twelve geometric descriptors, exact, from one ``BatchDescriptors`` per assembly
    (kept for the eight most recent assemblies);
-2. the descriptor network (``rap.model.inference.descriptor_model``): P(high) and the expected
-   score of every operation;
+2. the descriptor model (``rap.model.inference.descriptor_model``; shipped: gradient-boosted
+   trees): P(high) and the expected score of every operation;
 3. the operations whose P(high) lies strictly inside ``band`` (``model.meta["band"]``) are
    rendered and scored by the CNN with the same descriptors, and take its numbers.
 
 Results are deterministic and independent of how a caller batches the operations. The band
-``(0.5, 0.5)`` (empty) scores by the descriptors alone; ``(0, 1)`` is the CNN everywhere (with the
+``(0.5, 0.5)`` (empty; the shipped one, chosen on the unseen set: the trees alone are within a
+point of the CNN's accuracy, docs/MODEL.md) scores by the descriptors alone; ``(0, 1)`` is the CNN everywhere (with the
 descriptors computed in batches). ``counts`` says how many operations each part answered.
+
+Its ``bounds`` are the split-conformal score bounds fitted on the descriptor model's own
+expected scores (``NAME.scorer.bounds.json``): a search over this scorer's numbers should bound
+with them, not with the CNN's ``rap/data/score_bounds.json`` (``Scorer.bounds`` passes them on).
 
 ``load_default(path, ...)`` is what ``OperationPredictor.load(path, engine="auto")`` returns when
 a descriptor model sits beside the checkpoint (``companion(path)``: ``NAME.scorer.npz`` next to
 ``NAME.pt``) and was fitted for it (the checkpoint's SHA-256 is in its meta); otherwise the CNN.
 
-Cost: on the 22-brick wall's graph the descriptors and the network take a tenth of the CNN's
-time or less (``python benchmarks/scorer.py`` prints the ratio), plus the CNN's for the share of
-operations in the band. Thread-safe: the CNN's lock serialises its forward passes; the
+Cost: on the 22-brick wall's graph, a subassembly's operations a call, the descriptors and the
+trees take 1/18 of the CNN's time (``python benchmarks/scorer.py``: 7,864 against 431 operations
+a second, BLAS on one thread, a loaded 2-core machine), plus the CNN's for the operations in the
+band; loading adds lightgbm's import (about a second with pandas). Thread-safe: the CNN's lock serialises its forward passes; the
 descriptor tables are built under a lock. No torch at import, no ray.
 """
 
@@ -38,13 +44,20 @@ import numpy as np
 from rap.model.inference.descriptor_model import DescriptorModel
 from rap.operation import Operation
 
-__all__ = ["CascadeScorer", "companion", "load_default", "checkpoint_sha256"]
+__all__ = ["CascadeScorer", "companion", "bounds_path", "load_default", "checkpoint_sha256"]
 
 
 def companion(path: str | Path) -> Path:
     """Where the descriptor model of checkpoint ``path`` lives: ``NAME.scorer.npz`` beside it."""
     path = Path(path)
     return path.with_name(path.stem + ".scorer.npz")
+
+
+def bounds_path(model_path: str | Path) -> Path:
+    """The score bounds fitted for a descriptor model: ``NAME.bounds.json`` beside
+    ``NAME.npz``."""
+    model_path = Path(model_path)
+    return model_path.with_name(model_path.name.removesuffix(".npz") + ".bounds.json")
 
 
 def checkpoint_sha256(path: str | Path) -> str:
@@ -58,12 +71,16 @@ def checkpoint_sha256(path: str | Path) -> str:
 class CascadeScorer:
     """Descriptor network first, the CNN inside the band (module doc). ``cnn``: an
     ``OperationPredictor`` whose network takes the twelve descriptors or none; ``model``: a
-    ``DescriptorModel``; ``band``: (lo, hi), default the model's."""
+    ``DescriptorModel``; ``band``: (lo, hi), default the model's; ``bounds``: the split-conformal
+    score bounds (``rap.model.calibration.ScoreBounds``) fitted on this scorer's expected scores,
+    which a search should use in place of the CNN's (None: not known)."""
 
     engine = "cascade"
 
-    def __init__(self, cnn, model: DescriptorModel, band: tuple[float, float] | None = None):
+    def __init__(self, cnn, model: DescriptorModel, band: tuple[float, float] | None = None,
+                 bounds=None):
         self.cnn = cnn
+        self.bounds = bounds
         self.model = model
         lo, hi = band if band is not None else model.meta.get("band", (0.5, 0.5))
         self.band = (float(lo), float(hi))
@@ -156,4 +173,9 @@ def load_default(path: str | Path, cnn) -> CascadeScorer | None:
     model = DescriptorModel.load(model_path)
     if model.meta.get("checkpoint_sha256") != checkpoint_sha256(path):
         return None
-    return CascadeScorer(cnn, model)
+    bounds = None
+    if bounds_path(model_path).is_file():
+        from rap.model.calibration import load
+
+        bounds = load(bounds_path(model_path))
+    return CascadeScorer(cnn, model, bounds=bounds)

@@ -164,6 +164,13 @@ class Scorer:
         return st.sim_run + st.chunk_trials / problem.params.trials
 
     @property
+    def bounds(self):
+        """The score bounds fitted for the CNN backend's own numbers, where it carries them
+        (``rap.model.inference.cascade.CascadeScorer.bounds``), else None (the CNN's: the shipped
+        ``rap.model.calibration.load()``)."""
+        return getattr(self.cnn, "bounds", None)
+
+    @property
     def chunked(self) -> bool:
         """Whether the simulator backend runs the chunks of sequential tests."""
         return hasattr(self.simulator, "simulate_chunks")

@@ -38,6 +38,24 @@ def test_head_is_the_binomial_head_with_temperature():
     np.testing.assert_allclose(m.expected_score(x), expected)
 
 
+def test_trees_round_trip(tmp_path):
+    lightgbm = pytest.importorskip("lightgbm")
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(200, 12))
+    rate = 1 / (1 + np.exp(-x[:, 0]))
+    booster = lightgbm.train({"objective": "cross_entropy", "num_leaves": 4, "verbose": -1,
+                              "seed": 0, "deterministic": True, "num_threads": 1},
+                             lightgbm.Dataset(x, label=rate), 5)
+    m = DescriptorModel(None, None, [], {"threshold": 0.95, "trials": 100, "temperature": 0.9},
+                        booster=booster.model_to_string())
+    back = DescriptorModel.load(m.save(tmp_path / "t.scorer.npz"))
+    assert back.meta["kind"] == "gbt"
+    np.testing.assert_allclose(back.logits(x[:7]), booster.predict(x[:7], raw_score=True))
+    np.testing.assert_allclose(back.expected_score(x[:7]),
+                               1 / (1 + np.exp(-booster.predict(x[:7], raw_score=True) / 0.9)))
+    assert back.logits(x[:0]).shape == (0,)
+
+
 def test_refuses_another_file(tmp_path):
     path = tmp_path / "other.npz"
     np.savez(path, meta=np.array(json.dumps({"format": "something else"})), mean=np.zeros(12))
