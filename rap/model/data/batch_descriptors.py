@@ -38,7 +38,7 @@ import numpy as np
 
 from rap.assembly import Assembly
 from rap.geometry.ndbg import NDBG, build_ndbg, cell_index
-from rap.model.data.descriptors import _PARALLEL_COS, _VERTEX_RAD, DESCRIPTORS
+from rap.model.data.descriptors import DESCRIPTORS, PARALLEL_COS, VERTEX_RAD, segments
 from rap.operation import Operation
 
 __all__ = ["BatchDescriptors"]
@@ -102,9 +102,7 @@ class BatchDescriptors:
                 if (boxes[i, 0] > boxes[j, 2] or boxes[j, 0] > boxes[i, 2]
                         or boxes[i, 1] > boxes[j, 3] or boxes[j, 1] > boxes[i, 3]):
                     continue
-                from rap.model.data.descriptors import _segments
-
-                for s in _segments(polys[i].boundary.intersection(polys[j].boundary)):
+                for s in segments(polys[i].boundary.intersection(polys[j].boundary)):
                     seg_i.append(i)
                     seg_j.append(j)
                     seg.append((s[2] - s[0], s[3] - s[1]))
@@ -146,7 +144,7 @@ class BatchDescriptors:
             k = len(free)
             for c in ((k0 - 1) % k, (k0 + 1) % k):
                 d = abs(self._vertex_angle[c] - a)
-                if self._vertex[c] and free[c] and min(d, _TWO_PI - d) < _VERTEX_RAD:
+                if self._vertex[c] and free[c] and min(d, _TWO_PI - d) < VERTEX_RAD:
                     return c
         raise ValueError(f"moving {sorted(op.moving)} is blocked by {sorted(op.fixed)} along "
                          f"{tuple(float(v) for v in removal)}")
@@ -210,7 +208,7 @@ class BatchDescriptors:
         perimeter = moving @ self._perimeter - 2.0 * (inside @ length)
         d = self._seg_d
         c = np.abs(r[:, :1] * d[:, 0] + r[:, 1:] * d[:, 1]) / length  # [N, S]
-        parallel = c > _PARALLEL_COS
+        parallel = c > PARALLEL_COS
         sliding = (across_pair * parallel) @ length if len(length) else 0.0
         cross = length * np.sqrt(np.maximum(0.0, 1.0 - c * c))
         facing = (across_pair * ~parallel * cross).sum(axis=1)

@@ -53,7 +53,7 @@ from rap.geometry.ndbg import NDBG, build_ndbg, cell_index
 from rap.operation import Operation
 
 __all__ = ["DESCRIPTORS", "VERSION", "DescriptorContext", "operation_descriptors",
-           "descriptors_for", "columns"]
+           "descriptors_for", "columns", "PARALLEL_COS", "VERTEX_RAD", "segments"]
 
 VERSION = 1  # of the definitions below: caches of computed descriptors are keyed by it
 
@@ -228,6 +228,10 @@ def _segments(geom) -> list[tuple[float, float, float, float]]:
         elif hasattr(g, "geoms"):
             stack.extend(g.geoms)
     return out
+
+
+PARALLEL_COS, VERTEX_RAD = _PARALLEL_COS, _VERTEX_RAD  # for rap.model.data.batch_descriptors
+segments = _segments
 
 
 def operation_descriptors(assembly: Assembly, op: Operation,

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rap.model.inference.numpy_engine import _binomial_tail, _high_count
+from rap.model.inference.numpy_engine import binomial_tail, high_count
 
 __all__ = ["DescriptorModel", "FORMAT", "LOG_EPS", "features"]
 
@@ -101,8 +101,8 @@ class DescriptorModel:
     def prob_high_and_expected(self, descriptors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(P(high), expected score), float64 [N] each."""
         p = 1.0 / (1.0 + np.exp(-self.logits(descriptors) / self.temperature))
-        k = _high_count(self.threshold, self.trials)
-        return _binomial_tail(p, self.trials, k), p
+        k = high_count(self.threshold, self.trials)
+        return binomial_tail(p, self.trials, k), p
 
     def expected_score(self, descriptors: np.ndarray) -> np.ndarray:
         return 1.0 / (1.0 + np.exp(-self.logits(descriptors) / self.temperature))

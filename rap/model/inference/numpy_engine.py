@@ -41,7 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["NumpyPredictor", "load_numpy_predictor", "read_torch_checkpoint", "CHUNK"]
+__all__ = ["NumpyPredictor", "load_numpy_predictor", "read_torch_checkpoint", "CHUNK",
+           "binomial_tail", "high_count"]
 
 CHUNK = 64  # images per forward pass (memory: ~40 MB of im2col buffers at 64)
 
@@ -291,6 +292,10 @@ def _binomial_tail(p: np.ndarray, n: int, k: int) -> np.ndarray:
                       + j * lp + (n - j) * lq for j in range(k, n + 1)])
     m = terms.max(axis=0)
     return np.clip(np.exp(m + np.log(np.exp(terms - m).sum(axis=0))), 0.0, 1.0)
+
+
+binomial_tail = _binomial_tail  # public names for the other numpy heads (descriptor_model)
+high_count = _high_count
 
 
 def _conv_names(norm: str) -> list[tuple[str, str | None]]:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rap.model.inference.descriptor_model import DescriptorModel
-from rap.model.inference.numpy_engine import _binomial_tail
+from rap.model.inference.numpy_engine import binomial_tail
 
 
 def _model(seed: int = 0) -> DescriptorModel:
@@ -33,7 +33,7 @@ def test_head_is_the_binomial_head_with_temperature():
     prob, expected = m.prob_high_and_expected(x)
     p = 1 / (1 + np.exp(-m.logits(x) / 1.3))
     np.testing.assert_allclose(expected, p)
-    np.testing.assert_allclose(prob, _binomial_tail(p, 100, 95))
+    np.testing.assert_allclose(prob, binomial_tail(p, 100, 95))
     np.testing.assert_allclose(m.prob_high(x), prob)
     np.testing.assert_allclose(m.expected_score(x), expected)
 
