@@ -4,7 +4,7 @@
         [--operations 1024] [--batches 4,64,512]
 
 Scores the first ``--operations`` operations of the assembly's AND/OR graph with the shipped model
-as ``plan`` does (``OperationPredictor.load(..., engine="auto")``, ``expected_score``: rendering, the
+as ``plan`` did before the cascade (``OperationPredictor.load(..., engine="cnn")``, ``expected_score``: rendering, the
 descriptors and the forward pass), in batches of each size, and prints operations a second and
 the share of rendering. Also prints the graph's size and what scoring all of it would take at the
 best rate: the floor of the exact search's time on that assembly, which scores most of the graph
@@ -41,7 +41,7 @@ def main() -> None:
     print(f"{Path(a.assembly).name}: {len(graph)} subassemblies, {len(ops)} operations "
           f"(graph built in {time.perf_counter() - t:.2f} s); {os.cpu_count()} CPUs, load "
           f"{os.getloadavg()[0]:.1f}")
-    cnn = OperationPredictor.load(ROOT / "rap" / "data" / "default_model.pt", engine="auto")
+    cnn = OperationPredictor.load(ROOT / "rap" / "data" / "default_model.pt", engine="cnn")
     sample = ops[:a.operations]
     cnn.expected_score(problem, sample[:8])  # warm-up
     best = 0.0

@@ -229,7 +229,7 @@ def measure(model: Path, plans: bool, setting: str) -> None:
         tabs = saved_tables(ROOT / "reports" / "search-validation", split, names)
         t = time.perf_counter()
         ft = {}
-        cnn = OperationPredictor.load(model, engine="auto")
+        cnn = OperationPredictor.load(model, engine="cnn")
         for n in names:  # as validation_tables.predictions, both numbers in one pass
             problem = problem_of(n)
             ops = [op for c in reachable(problem).values() for op in c]

@@ -133,7 +133,7 @@ def predictions(name: str, mirror: bool = False, model: Path | None = None,
 
     problem = problem_of(name)
     ops = [op for c in reachable(problem).values() for op in c]
-    cnn = OperationPredictor.load(model or model_of(name), engine="auto", mirror=mirror)
+    cnn = OperationPredictor.load(model or model_of(name), engine="cnn", mirror=mirror)
     return dict(zip([problem.key(op) for op in ops],
                     map(float, getattr(cnn, what)(problem, ops))))
 

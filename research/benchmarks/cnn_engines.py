@@ -37,7 +37,7 @@ def main() -> None:
     from research.benchmarks.search import NoSimulator
 
     params, seed = dataset_params(args.dataset)
-    engines = {"numpy": OperationPredictor.load(args.model, engine="auto"),
+    engines = {"numpy": OperationPredictor.load(args.model, engine="cnn"),
                "torch": OperationPredictor.load(args.model, engine="torch")}
     assert getattr(engines["numpy"].predictor, "engine", None) == "numpy", "not a fastcnn model"
     totals = dict.fromkeys(engines, 0.0)

@@ -53,7 +53,7 @@ from rap.geometry.ndbg import NDBG, build_ndbg, cell_index
 from rap.operation import Operation
 
 __all__ = ["DESCRIPTORS", "VERSION", "DescriptorContext", "operation_descriptors",
-           "descriptors_for", "columns"]
+           "descriptors_for", "columns", "PARALLEL_COS", "VERTEX_RAD", "segments"]
 
 VERSION = 1  # of the definitions below: caches of computed descriptors are keyed by it
 
@@ -62,8 +62,8 @@ DESCRIPTORS = ("range_width_rad", "margin_rad", "margin_fraction", "single_direc
                "facing_contact", "depth", "lateral_overlap", "log_aspect")
 
 _TWO_PI = 2.0 * math.pi
-_PARALLEL_COS = 0.999  # a contact edge within 2.6 degrees of the motion counts as sliding
-_VERTEX_RAD = 1e-9  # a float direction this close to a critical one may stand for it (rows keep
+PARALLEL_COS = 0.999  # a contact edge within 2.6 degrees of the motion counts as sliding
+VERTEX_RAD = 1e-9  # a float direction this close to a critical one may stand for it (rows keep
 # only the float unit vector of an operation's direction; a vertex's is its exact direction's)
 
 
@@ -104,7 +104,7 @@ class DescriptorContext:
         """(start, end) exact bounds of the maximal CCW range of removal directions of ``moving``
         off ``fixed`` that holds ``removal``: equal for a single direction, (None, None) for the
         whole circle. ``from_float``: ``removal`` is a float unit vector taken exactly, which may
-        stand for a critical direction beside it (within ``_VERTEX_RAD``). Raises ``ValueError``
+        stand for a critical direction beside it (within ``VERTEX_RAD``). Raises ``ValueError``
         when the operation is not feasible there."""
         mv, fx = self.ndbg.mask(moving), self.ndbg.mask(fixed)
         cells = self.ndbg.cells
@@ -117,7 +117,7 @@ class DescriptorContext:
                 near = [k for k in ((k0 - 1) % n, (k0 + 1) % n)
                         if cells[k].kind == "vertex" and self._feasible(k, mv, fx)
                         and min(abs(_angle(cells[k].direction) - a),
-                                _TWO_PI - abs(_angle(cells[k].direction) - a)) < _VERTEX_RAD]
+                                _TWO_PI - abs(_angle(cells[k].direction) - a)) < VERTEX_RAD]
             if not near:
                 raise ValueError(f"moving {sorted(moving)} is blocked by {sorted(fixed)} along "
                                  f"{tuple(float(v) for v in removal)}")
@@ -159,7 +159,7 @@ class DescriptorContext:
         if hit is None:
             m, mv, am, perimeter = self._union(moving)
             f, fv, af, _ = self._union(fixed)
-            contact = _segments(m.boundary.intersection(f.boundary))
+            contact = segments(m.boundary.intersection(f.boundary))
             hit = self._shapes[key] = (mv, fv, contact, am, af, perimeter)
         return hit
 
@@ -186,7 +186,7 @@ class DescriptorContext:
         for (x0, y0, x1, y1) in contact:
             length = math.hypot(x1 - x0, y1 - y0)
             c = abs((x1 - x0) * r[0] + (y1 - y0) * r[1]) / length
-            if c > _PARALLEL_COS:
+            if c > PARALLEL_COS:
                 sliding += length
             else:
                 facing += length * math.sqrt(max(0.0, 1.0 - c * c))
@@ -215,7 +215,7 @@ def _vertices(geom) -> np.ndarray:
     return np.concatenate([np.asarray(p.exterior.coords) for p in polys])
 
 
-def _segments(geom) -> list[tuple[float, float, float, float]]:
+def segments(geom) -> list[tuple[float, float, float, float]]:
     """The straight pieces of the line parts of a shapely geometry (points dropped)."""
     out = []
     stack = [geom]

@@ -76,23 +76,35 @@ class OperationPredictor:
 
     @classmethod
     def load(cls, path: str | Path, device: str = "cpu", engine: str = "torch",
-             mirror: bool = False) -> "OperationPredictor":
-        """``engine``: ``"torch"`` (``rap.model.inference.torch_engine.TorchPredictor``) or ``"auto"``: on the CPU,
-        ``rap.model.inference.numpy_engine``'s numpy forward pass when it runs this checkpoint exactly, else torch.
-        Both give the same probabilities to float32 rounding. ``mirror``: average the network's
-        outputs over each pair and its mirror image (twice the forward passes)."""
-        if engine not in ("torch", "auto"):
-            raise ValueError(f"engine {engine!r}: torch or auto")
-        if engine == "auto" and str(device) == "cpu":
+             mirror: bool = False):
+        """``engine``: ``"torch"`` (``rap.model.inference.torch_engine.TorchPredictor``);
+        ``"cnn"``: the CNN alone, on the CPU ``rap.model.inference.numpy_engine``'s numpy forward
+        pass when it runs this checkpoint exactly, else torch (both give the same probabilities
+        to float32 rounding); ``"auto"``: the default scorer, the ``"cnn"`` predictor wrapped in a
+        ``rap.model.inference.cascade.CascadeScorer`` when a descriptor model fitted for this
+        checkpoint lies beside it (``cascade.companion``; the shipped model has one), else the
+        same as ``"cnn"``. ``mirror``: average the network's outputs over each pair and its
+        mirror image (twice the forward passes); a CNN option, so ``"auto"`` then gives the CNN
+        alone."""
+        if engine not in ("torch", "cnn", "auto"):
+            raise ValueError(f"engine {engine!r}: torch, cnn or auto")
+        cnn = None
+        if engine in ("cnn", "auto") and str(device) == "cpu":
             from rap.model.inference.numpy_engine import load_numpy_predictor
 
             fast = load_numpy_predictor(path)
             if fast is not None:
                 fast.mirror = bool(mirror)
-                return cls(fast)
-        from rap.model.inference.torch_engine import TorchPredictor
+                cnn = cls(fast)
+        if cnn is None:
+            from rap.model.inference.torch_engine import TorchPredictor
 
-        return cls(TorchPredictor.load(path, device=device, mirror=mirror))
+            cnn = cls(TorchPredictor.load(path, device=device, mirror=mirror))
+        if engine == "auto" and not mirror:
+            from rap.model.inference.cascade import load_default
+
+            return load_default(path, cnn) or cnn
+        return cnn
 
     @property
     def meta(self) -> dict:
@@ -161,6 +173,12 @@ class OperationPredictor:
                 return (self._forward("prob_high", images, descriptors),
                         self._forward("expected_score", images, descriptors))
             return self._forward("prob_high_and_expected", images, descriptors)
+
+    def forward(self, what: str, images: np.ndarray, descriptors: np.ndarray | None = None):
+        """The network's ``what`` (``prob_high``, ``expected_score``, ``prob_high_and_expected``)
+        on inputs already made (``images``, ``descriptors``), under the forward-pass lock."""
+        with self._lock:
+            return self._forward(what, images, descriptors)
 
     def _forward(self, what: str, images: np.ndarray, descriptors: np.ndarray | None = None):
         """The predictor's ``what`` on the images: float64 [N], or a tuple of them for a method

@@ -153,6 +153,13 @@ class Scorer:
         """Fresh simulations so far (what a budget of simulations counts)."""
         return self.stats.sim_run
 
+    @property
+    def bounds(self):
+        """The score bounds fitted for the CNN backend's own numbers, where it carries them
+        (``rap.model.inference.cascade.CascadeScorer.bounds``), else None (the CNN's: the shipped
+        ``rap.model.calibration.load()``)."""
+        return getattr(self.cnn, "bounds", None)
+
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The CNN's P(high) for each operation, one batch. Raises when no CNN is loaded."""
         return self._cnn_call("prob_high", problem, ops)

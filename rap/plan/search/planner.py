@@ -81,8 +81,8 @@ class _Run:
 
 class SearchPlanner(Planner):
     """See the module doc. ``SearchOptions`` declares the options, their ranges and the shipped
-    defaults: ``SearchPlanner()`` is the shipped search. ``bounds``: the score bounds (None:
-    ``rap.model.calibration.load()``, the shipped calibration, read on first use)."""
+    defaults: ``SearchPlanner()`` is the shipped search. ``bounds``: the score bounds (None: the
+    scorer's own, ``Scorer.bounds``, else ``rap.model.calibration.load()``, the CNN's)."""
 
     name = "search"
     options_class = SearchOptions
@@ -182,10 +182,11 @@ class SearchPlanner(Planner):
 
     def _search(self, problem, scorer, stats):
         whole = problem.whole
-        if self.bounds is None:
-            self.bounds = load()
+        # the bounds fitted for the scorer's own numbers (the default scorer carries its own),
+        # else the shipped calibration of the CNN; chosen per solve, never kept
+        bounds = self.bounds if self.bounds is not None else (scorer.bounds or load())
         raise_ = self.simulations > 0  # raised scores choose what to simulate: none to choose
-        scores = SearchScores(problem, scorer, self.bounds,
+        scores = SearchScores(problem, scorer, bounds,
                               bonferroni(self.confidence, len(whole) - 1),
                               self.optimism if raise_ else 0.0, self.upper if raise_ else 0.0,
                               self.trust)

@@ -1,0 +1,181 @@
+"""The default scorer: a descriptor model screens operations, the CNN is asked where it is unsure.
+
+``CascadeScorer(cnn, model)`` answers what ``OperationPredictor`` answers (the ``CnnBackend`` of
+``rap.plan.scoring.scorer``: ``prob_high``, ``expected_score``, ``prob_high_and_expected``; and
+``meta``, ``images``, ``cores_busy``, ``render_seconds`` for the plan command's familiarity check
+and core sharing, passed to the CNN):
+
+1. the batch's twelve geometric descriptors, exact, from one ``BatchDescriptors`` per assembly
+   (kept for the eight most recent assemblies);
+2. the descriptor model (``rap.model.inference.descriptor_model``; shipped: gradient-boosted
+   trees): P(high) and the expected score of every operation;
+3. the operations whose P(high) lies strictly inside ``band`` (``model.meta["band"]``) are
+   rendered and scored by the CNN with the same descriptors, and take its numbers.
+
+Results are deterministic and independent of how a caller batches the operations. The band
+``(0.5, 0.5)`` (empty; the shipped one, chosen on the unseen set: the trees alone are within a
+point of the CNN's accuracy, docs/MODEL.md) scores by the descriptors alone; ``(0, 1)`` is the CNN everywhere (with the
+descriptors computed in batches). ``counts`` says how many operations each part answered.
+
+Its ``bounds`` are the split-conformal score bounds fitted on the descriptor model's own
+expected scores (``NAME.scorer.bounds.json``): a search over this scorer's numbers should bound
+with them, not with the CNN's ``rap/data/score_bounds.json`` (``Scorer.bounds`` passes them on).
+
+``load_default(path, ...)`` is what ``OperationPredictor.load(path, engine="auto")`` returns when
+a descriptor model sits beside the checkpoint (``companion(path)``: ``NAME.scorer.npz`` next to
+``NAME.pt``) and was fitted for it (the checkpoint's SHA-256 is in its meta); otherwise the CNN.
+
+Cost: on the 22-brick wall's graph, a subassembly's operations a call, the descriptors and the
+trees take 1/18 of the CNN's time (``python benchmarks/scorer.py``: 7,864 against 431 operations
+a second, BLAS on one thread, a loaded 2-core machine), plus the CNN's for the operations in the
+band; loading adds lightgbm's import (about a second with pandas). Thread-safe: the CNN's lock serialises its forward passes; the
+descriptor tables are built under a lock. No torch at import, no ray.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from rap.model.inference.descriptor_model import DescriptorModel
+from rap.operation import Operation
+
+__all__ = ["CascadeScorer", "companion", "bounds_path", "load_default", "checkpoint_sha256"]
+
+
+def companion(path: str | Path) -> Path:
+    """Where the descriptor model of checkpoint ``path`` lives: ``NAME.scorer.npz`` beside it."""
+    path = Path(path)
+    return path.with_name(path.stem + ".scorer.npz")
+
+
+def bounds_path(model_path: str | Path) -> Path:
+    """The score bounds fitted for a descriptor model: ``NAME.bounds.json`` beside
+    ``NAME.npz``."""
+    model_path = Path(model_path)
+    return model_path.with_name(model_path.name.removesuffix(".npz") + ".bounds.json")
+
+
+def checkpoint_sha256(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+class CascadeScorer:
+    """Descriptor network first, the CNN inside the band (module doc). ``cnn``: an
+    ``OperationPredictor`` whose network takes the twelve descriptors or none; ``model``: a
+    ``DescriptorModel``; ``band``: (lo, hi), default the model's; ``bounds``: the split-conformal
+    score bounds (``rap.model.calibration.ScoreBounds``) fitted on this scorer's expected scores,
+    which a search should use in place of the CNN's (None: not known)."""
+
+    engine = "cascade"
+
+    def __init__(self, cnn, model: DescriptorModel, band: tuple[float, float] | None = None,
+                 bounds=None):
+        self.cnn = cnn
+        self.bounds = bounds
+        self.model = model
+        lo, hi = band if band is not None else model.meta.get("band", (0.5, 0.5))
+        self.band = (float(lo), float(hi))
+        self.counts = {"descriptors": 0, "cnn": 0}
+        self._tables: dict = {}
+        self._tables_lock = threading.Lock()
+        from rap.model.data.descriptors import DESCRIPTORS, columns
+
+        names = tuple(getattr(cnn.predictor, "descriptors", ()) or ())
+        self._cnn_columns = columns(names) if names else None
+        if tuple(model.meta.get("descriptors", DESCRIPTORS)) != DESCRIPTORS:
+            raise ValueError("the descriptor model must take rap.model.data.descriptors.DESCRIPTORS")
+
+    # what the plan command reads of a CNN backend ------------------------------------------
+    @property
+    def predictor(self):
+        return self.cnn.predictor
+
+    @property
+    def meta(self) -> dict:
+        return self.cnn.meta
+
+    def images(self, problem, ops: Sequence[Operation]) -> np.ndarray:
+        return self.cnn.images(problem, ops)
+
+    @property
+    def cores_busy(self):
+        return self.cnn.cores_busy
+
+    @cores_busy.setter
+    def cores_busy(self, fn) -> None:
+        self.cnn.cores_busy = fn
+
+    @property
+    def render_seconds(self) -> float:
+        return self.cnn.render_seconds
+
+    @render_seconds.setter
+    def render_seconds(self, value: float) -> None:
+        self.cnn.render_seconds = value
+
+    # scoring -----------------------------------------------------------------------------
+    def descriptors(self, problem, ops: Sequence[Operation]) -> np.ndarray:
+        """The twelve descriptors of each operation, float32 [N, 12] (``BatchDescriptors``)."""
+        from rap.model.data.batch_descriptors import BatchDescriptors
+
+        h = problem.assembly.geometry_hash
+        with self._tables_lock:
+            tables = self._tables.get(h)
+            if tables is None:
+                if len(self._tables) >= 8:
+                    self._tables.pop(next(iter(self._tables)))
+                tables = self._tables[h] = BatchDescriptors(problem.assembly)
+        return tables.of(ops)
+
+    def prob_high_and_expected(self, problem, ops: Sequence[Operation]
+                               ) -> tuple[np.ndarray, np.ndarray]:
+        """(P(high), expected score) of each operation, float64 [N] each (module doc)."""
+        ops = list(ops)
+        if not ops:
+            return np.zeros(0), np.zeros(0)
+        d = self.descriptors(problem, ops)
+        prob, expected = self.model.prob_high_and_expected(d)
+        lo, hi = self.band
+        unsure = np.flatnonzero((prob > lo) & (prob < hi))
+        self.counts["descriptors"] += len(ops) - len(unsure)
+        if len(unsure):
+            self.counts["cnn"] += len(unsure)
+            sub = [ops[i] for i in unsure]
+            images = self.cnn.images(problem, sub)
+            cd = None if self._cnn_columns is None else np.ascontiguousarray(
+                d[unsure][:, self._cnn_columns])
+            p, e = self.cnn.forward("prob_high_and_expected", images, cd)
+            prob[unsure], expected[unsure] = p, e
+        return prob, expected
+
+    def prob_high(self, problem, ops: Sequence[Operation]) -> np.ndarray:
+        return self.prob_high_and_expected(problem, ops)[0]
+
+    def expected_score(self, problem, ops: Sequence[Operation]) -> np.ndarray:
+        return self.prob_high_and_expected(problem, ops)[1]
+
+
+def load_default(path: str | Path, cnn) -> CascadeScorer | None:
+    """A ``CascadeScorer`` over ``cnn`` (the loaded checkpoint ``path``) when a descriptor model
+    fitted for this very checkpoint lies beside it (``companion``), else None."""
+    model_path = companion(path)
+    if not model_path.is_file():
+        return None
+    model = DescriptorModel.load(model_path)
+    if model.meta.get("checkpoint_sha256") != checkpoint_sha256(path):
+        return None
+    bounds = None
+    if bounds_path(model_path).is_file():
+        from rap.model.calibration import load
+
+        bounds = load(bounds_path(model_path))
+    return CascadeScorer(cnn, model, bounds=bounds)
