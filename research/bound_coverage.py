@@ -39,6 +39,8 @@ on ``unseen`` out of sample). Results are also written to ``reports/bound-covera
 
 from __future__ import annotations
 
+from research.figures import save_figure
+
 import argparse
 import json
 import math
@@ -205,10 +207,7 @@ def figure(results: dict, path: Path, chosen: str = "") -> None:
     axes[0][-1].legend(fontsize=6, loc="center left", bbox_to_anchor=(1.02, 0.5))
     fig.suptitle("plans on score tables: robustness against simulations spent while planning",
                  fontsize=9)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90, bbox_inches="tight")
-    print(f"wrote {path}")
+    save_figure(fig, path)
 
 
 def main() -> None:

@@ -24,6 +24,8 @@ Cost: the optimum simulates every operation of the graph (about 13 a second on 2
 
 from __future__ import annotations
 
+from research.figures import save_figure
+
 import argparse
 import json
 import os
@@ -213,10 +215,7 @@ def figure(data: dict, path: Path, settings: list[str]) -> None:
     axes[1].legend(fontsize=6.5, loc="lower right")
     fig.suptitle(f"real plans (--no-cache --seed {SEED}) on {len(done)} held-out assemblies: "
                  "robustness against simulations and time", fontsize=9)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90, bbox_inches="tight")
-    print(f"wrote {path}")
+    save_figure(fig, path)
 
 
 def main() -> None:

@@ -70,7 +70,8 @@ def test_demo_runs_the_small_pipeline_then_the_shipped_model_against_sim_only(tm
     # the default (200 simulations where they decide, issue 30) simulated every step it chose
     assert all(s["source"] == "sim" for s in search["steps"])
     assert all(s["source"] == "sim" for s in sim["steps"])
-    assert (round(search["robustness"], 3), round(sim["robustness"], 3)) == (0.842, 0.743)
+    # the default scorer (trees on the exact descriptors, 0.3.0): 0.833; the CNN alone gave 0.842
+    assert (round(search["robustness"], 3), round(sim["robustness"], 3)) == (0.833, 0.743)
     assert "packing-s100: search plan (11 steps, assembly order)" in said  # plan's own table
     assert (f"search (default), shipped model R = {search['robustness']:.3f} planning "
             f"{search['seconds']:.2f} s (its 11 steps then simulated, to measure R)") in said

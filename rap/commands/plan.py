@@ -130,19 +130,15 @@ def plan_command(
     cache: Path = typer.Option(None, "--cache", help="Score cache file [default: "
                                "~/.cache/rap-farm/scores.json or $RAP_CACHE]."),
     no_cache: bool = typer.Option(False, "--no-cache", help="Neither read nor write a cache file."),
-    # the methods' options: declared, with their ranges and help, in rap.plan.methods
+    # the methods' options: declared, with their ranges and help, beside each planner
     samples: int = _method_flag("samples"),
-    fallback_k: int = _method_flag("fallback_k"),
+    fallback_k: int = _method_flag("fallback_k"),  # RAP's fallback
     high_probability: float = _method_flag("high_probability"),
     fallback_optimism: float = _method_flag("fallback_optimism"),
-    beam_width: int = _method_flag("beam_width"),
-    simulations: int = _method_flag("simulations"),
-    trust: float = _method_flag("trust"),
-    optimism: float = _method_flag("optimism"),
-    upper: float = _method_flag("upper"),
-    confidence: float = _method_flag("confidence"),
-    gap: float = _method_flag("gap"),
-    time_limit: float = _method_flag("time_limit"),
+    simulations: int = _method_flag("simulations"), trust: float = _method_flag("trust"),
+    optimism: float = _method_flag("optimism"), upper: float = _method_flag("upper"),
+    confidence: float = _method_flag("confidence"), gap: float = _method_flag("gap"),
+    time_limit: float = _method_flag("time_limit"), beam_width: int = _method_flag("beam_width"),
     # the robot cell's constraints (rap.plan.cell.constraints; docs/PLANNING.md, Robot-cell constraints)
     base: str = BASE, linear: bool = LINEAR, directions: list[str] = DIRECTIONS,
     gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,

@@ -38,14 +38,12 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from rap.stats import bonferroni, check_level
+from rap.stats import check_level
 
 __all__ = ["ScoreBounds", "fit", "load", "save", "min_count", "DEFAULT_PATH",
            "DEFAULT_BINS", "FORMAT"]
@@ -197,21 +195,9 @@ def fit(predicted, simulated, *, bins: int = DEFAULT_BINS,
 def save(bounds: ScoreBounds, path: str | Path = DEFAULT_PATH) -> Path:
     """Write ``bounds.to_json()`` to ``path`` atomically (a temporary file renamed), with the
     permissions of a committed file."""
-    from rap.files import committed_file_mode
+    from rap.files import write_text_atomic
 
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(bounds.to_json(), f, separators=(",", ":"))
-            f.write("\n")
-        os.chmod(tmp, committed_file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    return write_text_atomic(path, json.dumps(bounds.to_json(), separators=(",", ":")) + "\n")
 
 
 def load(path: str | Path | None = None) -> ScoreBounds:

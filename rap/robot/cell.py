@@ -76,13 +76,15 @@ class TraySection:
 
 @dataclass(frozen=True)
 class MotionSection:
-    approach_height_m: float = 0.05
-    joint_speed_rad_s: float = 1.0
+    """``[motion]``: how the arm moves between and along the program's waypoints."""
+
+    approach_height_m: float = 0.05  # above the placed parts before descending
+    joint_speed_rad_s: float = 1.0  # movej
     joint_acceleration_rad_s2: float = 1.4
-    linear_speed_m_s: float = 0.25
-    insertion_speed_m_s: float = 0.02
+    linear_speed_m_s: float = 0.25  # movel, in free space
+    insertion_speed_m_s: float = 0.02  # movel, the insertion itself
     linear_acceleration_m_s2: float = 0.5
-    samples_per_segment: int = 8
+    samples_per_segment: int = 8  # points checked along each straight segment
 
 
 @dataclass(frozen=True)

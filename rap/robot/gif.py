@@ -40,10 +40,7 @@ def write_gif(frames, path: str | Path, frame_s: float = 0.12, max_frames: int =
     """Write ``frames`` (PIL images) as a looping GIF at ``path``, atomically; at most
     ``max_frames`` of them, evenly spaced, the last one kept (a 22-step wall records about 1000:
     2.4 MB; 200 are under 0.5 MB)."""
-    import os
-    import tempfile
-
-    from rap.files import committed_file_mode
+    from rap.files import write_bytes_atomic
 
     if not frames:
         raise ValueError("no frames to write")
@@ -55,17 +52,4 @@ def write_gif(frames, path: str | Path, frame_s: float = 0.12, max_frames: int =
     pal = [f.convert("P", palette=1, colors=64) for f in frames]  # 1 = Image.ADAPTIVE
     pal[0].save(buf, format="GIF", save_all=True, append_images=pal[1:],
                 duration=int(frame_s * 1000), loop=0, optimize=True)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".gif", dir=path.parent)
-    try:
-        os.fchmod(fd, committed_file_mode())
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(buf.getvalue())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return path
+    return write_bytes_atomic(path, buf.getvalue())

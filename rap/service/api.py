@@ -166,25 +166,48 @@ def _constraints(raw) -> CellConstraints:
         raise BadRequest(400, exc.for_name(name)) from None
 
 
-def parse_plan_request(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optimal_parts: int = 16,
-                       max_simulations: int = 2000, max_vertices: int = 20_000):
-    """(assembly, method, root seed, planner options, ``CellConstraints``) of a ``POST /plan``
-    body, or ``BadRequest``."""
+def request_object(body: bytes, keys, shape: str, depth_note: str = "") -> dict:
+    """A request body as a JSON object whose keys are among ``keys`` (numbers as exact
+    ``Decimal``/``int``, no NaN or Infinity), else ``BadRequest`` 400 with one line (``shape``:
+    the object expected, in words)."""
     try:
         doc = json.loads(body, parse_float=Decimal, parse_int=int,
                          parse_constant=_reject_constant)
     except RecursionError:
-        raise BadRequest(400, "request body is nested too deeply (a plan request needs 6 "
-                              "levels)") from None
+        raise BadRequest(400, f"request body is nested too deeply{depth_note}") from None
     except (ValueError, InvalidOperation) as exc:
         raise BadRequest(400, f"request body is not valid JSON: {json_error_reason(exc)}") from None
     if not isinstance(doc, dict):
-        raise BadRequest(400, "request body must be a JSON object {\"assembly\": {...}, "
-                              "\"method\": ..., \"seed\": ...}")
-    unknown = sorted(set(doc) - set(REQUEST_KEYS))
+        raise BadRequest(400, f"request body must be a JSON object {shape}")
+    unknown = sorted(set(doc) - set(keys))
     if unknown:
-        raise BadRequest(400, f"unknown key {unknown[0]!r} (expected assembly, method, seed, "
-                              f"options, constraints)")
+        raise BadRequest(400, f"unknown key {unknown[0]!r} (expected {', '.join(keys)})")
+    return doc
+
+
+def request_assembly(raw, max_parts: int, max_vertices: int) -> Assembly:
+    """A request's ``assembly`` object, read exactly within the service's bounds: ``BadRequest``
+    413 past ``max_parts`` parts (counted before any arithmetic), 400 for an invalid one (the
+    reader's line)."""
+    parts = raw.get("parts") if isinstance(raw, dict) else None
+    if isinstance(parts, list) and len(parts) > max_parts:
+        raise BadRequest(413, f"assembly: {len(parts)} parts; this service reads at most "
+                              f"{max_parts}")
+    try:
+        return parse_assembly(raw, source="assembly", default_name="assembly",
+                              limits=replace(LIMITS, max_vertices=max_vertices))
+    except AssemblyError as exc:
+        raise BadRequest(400, str(exc)) from None
+    except RecursionError:
+        raise BadRequest(400, "assembly: nested too deeply") from None
+
+
+def parse_plan_request(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optimal_parts: int = 16,
+                       max_simulations: int = 2000, max_vertices: int = 20_000):
+    """(assembly, method, root seed, planner options, ``CellConstraints``) of a ``POST /plan``
+    body, or ``BadRequest``."""
+    doc = request_object(body, REQUEST_KEYS, '{"assembly": {...}, "method": ..., "seed": ...}',
+                         " (a plan request needs 6 levels)")
     if "assembly" not in doc:
         raise BadRequest(400, "missing key 'assembly' (the assembly JSON object)")
     method = doc.get("method", DEFAULT_METHOD)
@@ -195,17 +218,7 @@ def parse_plan_request(body: bytes, *, max_parts: int = LIMITS.max_parts, max_op
         raise BadRequest(400, f"seed {seed!r}: must be an integer in [-2^63, 2^63)")
     options = _planner_options(doc.get("options", {}), method, max_simulations)
     constraints = _constraints(doc.get("constraints", {}))
-    raw = doc["assembly"]
-    if isinstance(raw, dict) and isinstance(raw.get("parts"), list) and len(raw["parts"]) > max_parts:
-        raise BadRequest(413, f"assembly: {len(raw['parts'])} parts; this service plans at most "
-                              f"{max_parts}")
-    try:
-        assembly = parse_assembly(raw, source="assembly", default_name="assembly",
-                                  limits=replace(LIMITS, max_vertices=max_vertices))
-    except AssemblyError as exc:
-        raise BadRequest(400, str(exc)) from None
-    except RecursionError:
-        raise BadRequest(400, "assembly: nested too deeply") from None
+    assembly = request_assembly(doc["assembly"], max_parts, max_vertices)
     if method == "optimal" and len(assembly) > max_optimal_parts:
         raise BadRequest(413, f"method 'optimal': {len(assembly)} parts; this service finds the "
                               f"optimum for at most {max_optimal_parts} (ask for rap or sim)")

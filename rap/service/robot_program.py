@@ -31,16 +31,15 @@ import json
 import math
 import re
 import tomllib
-from dataclasses import dataclass, replace
-from decimal import Decimal, InvalidOperation
+from dataclasses import dataclass
+from decimal import Decimal
 
-from rap.assembly import LIMITS, Assembly, AssemblyError, json_error_reason
+from rap.assembly import LIMITS, Assembly
 from rap.errors import InputError
-from rap.io import parse_assembly
 from rap.plan.report.result import PlanResult, is_assembly_order
 from rap.robot.cell import Cell, parse_cell
 from rap.robot.inputs import check_assembly, plan_of
-from rap.service.api import BadRequest
+from rap.service.api import BadRequest, request_assembly, request_object
 
 __all__ = ["EXPORT_KEYS", "EXPORT_FORMATS", "DEFAULT_FORMAT", "PROGRAM_DETAILS_HEADER",
            "ExportRequest", "ProgramFile", "parse_export_request", "program_file",
@@ -82,10 +81,6 @@ class ProgramFile:
                 PROGRAM_DETAILS_HEADER: json.dumps(self.details, separators=(",", ":"))}
 
 
-def _no_constant(name: str):
-    raise ValueError(f"non-finite number {name} is not allowed")
-
-
 def _floats(value, where: str = "plan"):
     """The plan document with its decimals as floats (the plan's numbers are floats: poses,
     scores); a decimal beyond a float's range is a ``BadRequest``."""
@@ -120,18 +115,8 @@ def _cell(raw) -> Cell:
 def parse_export_request(body: bytes, *, max_parts: int = LIMITS.max_parts,
                          max_vertices: int = 20_000) -> ExportRequest:
     """The ``ExportRequest`` of a ``POST /export`` body, or ``BadRequest`` (module doc)."""
-    try:
-        doc = json.loads(body, parse_float=Decimal, parse_int=int, parse_constant=_no_constant)
-    except RecursionError:
-        raise BadRequest(400, "request body is nested too deeply") from None
-    except (ValueError, InvalidOperation) as exc:
-        raise BadRequest(400, f"request body is not valid JSON: {json_error_reason(exc)}") from None
-    if not isinstance(doc, dict):
-        raise BadRequest(400, "request body must be a JSON object {\"assembly\": {...}, "
-                              "\"plan\": {...}, \"format\": \"urscript\"}")
-    unknown = sorted(set(doc) - set(EXPORT_KEYS))
-    if unknown:
-        raise BadRequest(400, f"unknown key {unknown[0]!r} (expected {', '.join(EXPORT_KEYS)})")
+    doc = request_object(body, EXPORT_KEYS,
+                         '{"assembly": {...}, "plan": {...}, "format": "urscript"}')
     for key, what in (("assembly", "the assembly JSON object"),
                       ("plan", "the plan document POST /plan answered")):
         if key not in doc:
@@ -140,18 +125,7 @@ def parse_export_request(body: bytes, *, max_parts: int = LIMITS.max_parts,
     if not isinstance(fmt, str) or fmt not in EXPORT_FORMATS:
         raise BadRequest(400, f"format {fmt!r}: choose one of {', '.join(EXPORT_FORMATS)}")
     cell = _cell(doc.get("cell"))
-    raw = doc["assembly"]
-    parts = raw.get("parts") if isinstance(raw, dict) else None
-    if isinstance(parts, list) and len(parts) > max_parts:
-        raise BadRequest(413, f"assembly: {len(parts)} parts; this service reads at most "
-                              f"{max_parts}")
-    try:
-        assembly = parse_assembly(raw, source="assembly", default_name="assembly",
-                                  limits=replace(LIMITS, max_vertices=max_vertices))
-    except AssemblyError as exc:
-        raise BadRequest(400, str(exc)) from None
-    except RecursionError:
-        raise BadRequest(400, "assembly: nested too deeply") from None
+    assembly = request_assembly(doc["assembly"], max_parts, max_vertices)
     try:
         plan = plan_of(_floats(doc["plan"]), "plan")
         check_assembly(plan, assembly, "assembly")

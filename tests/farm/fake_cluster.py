@@ -27,6 +27,8 @@ simulator's.
 
 from __future__ import annotations
 
+import contextlib
+
 import atexit
 import dataclasses
 import os
@@ -322,3 +324,24 @@ if __name__ == "__main__":  # ``rap-farm`` with the GATED backend for ``label``
 
     driver.run_label = run_label
     main(sys.argv[1:])
+
+
+@contextlib.contextmanager
+def connected(**options):
+    """A started ``FakeCluster(**options)`` with this process connected to it (a module fixture's
+    body); on exit Ray is shut down, the cluster stopped, and no process of it may survive."""
+    import ray
+
+    if ray.is_initialized():
+        ray.shutdown()
+    c = FakeCluster(**options)
+    try:
+        c.start()
+        c.connect()
+        yield c
+    finally:
+        try:
+            ray.shutdown()
+        finally:
+            c.stop()
+    assert not c.leftovers(), "processes of the fake cluster survived its teardown"

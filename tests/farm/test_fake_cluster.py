@@ -23,7 +23,7 @@ import pytest
 from rap.dataset import open_dataset
 
 from tests.farm.conftest import ASSEMBLIES, FAKE, ROOT
-from tests.farm.fake_cluster import RAY, FakeCluster
+from tests.farm.fake_cluster import RAY, FakeCluster, connected
 
 pytestmark = [pytest.mark.ray, pytest.mark.cluster, pytest.mark.slow]
 
@@ -35,22 +35,8 @@ NODE = re.compile(r"^[^/]+/[0-9a-f]{56}$")  # hostname/<the whole Ray node id>
 @pytest.fixture(scope="module")
 def cluster():
     """The module's fake cluster, and this process connected to it (to watch its nodes)."""
-    import ray
-
-    if ray.is_initialized():
-        ray.shutdown()
-    c = FakeCluster(max_workers=3, idle_timeout_minutes=0.1, dashboard=True, gate_nodes=4,
-                    pause_s=0.5)
-    try:
-        c.start()
-        c.connect()
+    with connected(max_workers=3, idle_timeout_minutes=0.1, dashboard=True, gate_nodes=4, pause_s=0.5) as c:
         yield c
-    finally:
-        try:
-            ray.shutdown()
-        finally:
-            c.stop()
-    assert not c.leftovers(), "processes of the fake cluster survived its teardown"
 
 
 def label_cmd(c: FakeCluster, out, *extra: str, k: int = 24) -> list[str]:

@@ -24,7 +24,7 @@ import time
 import pytest
 
 from tests.farm.conftest import ROOT
-from tests.farm.fake_cluster import FakeCluster
+from tests.farm.fake_cluster import FakeCluster, connected
 from tests.farm.test_fake_cluster import FAKE_HEAD, SEED, TWO, label_cmd, rows, selected
 
 pytestmark = [pytest.mark.ray, pytest.mark.cluster, pytest.mark.slow]
@@ -34,21 +34,8 @@ KILL_EVERY_S = 6.0
 
 @pytest.fixture(scope="module")
 def churning():
-    import ray
-
-    if ray.is_initialized():
-        ray.shutdown()
-    c = FakeCluster(max_workers=3, idle_timeout_minutes=0.1, node_updaters=True, pause_s=0.3)
-    try:
-        c.start()
-        c.connect()
+    with connected(max_workers=3, idle_timeout_minutes=0.1, node_updaters=True, pause_s=0.3) as c:
         yield c
-    finally:
-        try:
-            ray.shutdown()
-        finally:
-            c.stop()
-    assert not c.leftovers(), "processes of the fake cluster survived its teardown"
 
 
 def killer(c: FakeCluster, stop: threading.Event, killed: list[str]) -> None:

@@ -27,9 +27,8 @@ a few small matrix products, about 10 microseconds a call. numpy, and lightgbm f
 
 from __future__ import annotations
 
+import io
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -112,7 +111,7 @@ class DescriptorModel:
 
     def save(self, path: str | Path) -> Path:
         """Write the model atomically (temporary file, renamed) as a committed file's mode."""
-        from rap.files import committed_file_mode
+        from rap.files import write_bytes_atomic
 
         path = Path(path)
         arrays = {"mean": self.mean, "scale": self.scale,
@@ -122,17 +121,9 @@ class DescriptorModel:
         else:
             for i, (w, b) in enumerate(self.layers):
                 arrays[f"w{i}"], arrays[f"b{i}"] = w, b
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
-        os.close(fd)
-        try:
-            np.savez_compressed(tmp, **arrays)
-            os.chmod(tmp, committed_file_mode())
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
-        return path
+        buf = io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        return write_bytes_atomic(path, buf.getvalue())
 
     @classmethod
     def load(cls, path: str | Path) -> "DescriptorModel":

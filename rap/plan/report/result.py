@@ -23,7 +23,6 @@ README.md ("Plan files").
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Sequence
