@@ -12,7 +12,7 @@ and as the driver sees them (upload to the page's "planned" state), median, min 
 The files: ``--files`` (default: the 7-part tangram, ``assemblies/unseen/tangram.json``, and,
 when ``rap.cad`` is present, two 7-part DXF drawings with arcs written with ezdxf: ``seven.dxf``
 of tests/cad/fixtures.py, blocks with arc joints in a tray, a cap and two discs, and ``pegs.dxf``
-of tests/service/test_page.py, round-ended pegs in round notches under notched caps).
+of tests/serve/test_page.py, round-ended pegs in round notches under notched caps).
 
     python benchmarks/page.py [--runs 5] [--method search] [--trials 100] [--workers N]
                               [--files a.json,b.dxf] [--url URL --token T]
@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
 
 from serve import body, post, start_service  # noqa: E402  (benchmarks/serve.py)
-from tests.service.test_page import chromium_path, open_page, plan_file, seven_part_dxf  # noqa: E402
+from tests.serve.test_page import chromium_path, open_page, plan_file, seven_part_dxf  # noqa: E402
 
 
 def _files(arg: str | None, tmp: Path) -> list[Path]:

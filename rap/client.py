@@ -1,4 +1,4 @@
-"""A client of the planning service (``rap-farm serve``, ``rap.service.http_app``) on urllib (no ray).
+"""A client of the planning service (``rap-farm serve``, ``rap.serve.http_app``) on urllib (no ray).
 
     doc, details = post_plan("http://127.0.0.1:8000", plan_body(path, "rap", seed=None), token=None)
     result = PlanResult.from_json(doc, **details)        # rap.plan.report.result
@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from rap.errors import InputError, ParameterError, RapError
-from rap.service.api import DETAILS_HEADER
+from rap.serve.api import DETAILS_HEADER
 
 __all__ = ["plan_body", "post_plan", "exact_json", "ServiceError"]
 
@@ -59,7 +59,7 @@ def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
               options: dict | None = None, constraints=None) -> bytes:
     """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``) or a
     drawing (.dxf, .svg: imported with the default options, as ``load_assembly`` does);
-    ``options``: the method's planner options (``rap.service.api.PLANNER_OPTIONS``), those not None;
+    ``options``: the method's planner options (``rap.serve.api.PLANNER_OPTIONS``), those not None;
     ``constraints``: the cell's ``rap.plan.cell.constraints.CellConstraints`` (sent when active)."""
     path = Path(assembly_path)
     if path.suffix.lower() in (".dxf", ".svg"):  # a drawing: sent as the assembly it imports to

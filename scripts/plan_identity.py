@@ -21,7 +21,7 @@ What it writes under OUT (everything with timings removed):
   to invalid ``plan`` invocations;
 * ``experiment_names.json``: the planner (class and attributes) or the error of each experiment
   method name (``rap-k2-p90``, ``search-s200-o10``, ...);
-* ``api.json``: what the planning service's request parser (``rap.service.api``) makes of valid and
+* ``api.json``: what the planning service's request parser (``rap.serve.api``) makes of valid and
   invalid ``options`` and methods.
 
 BLAS runs on one thread, so that the model's confidences are the same to the last digit.
@@ -178,7 +178,7 @@ def experiment_names(out: Path) -> None:
 
 
 def api(out: Path) -> None:
-    from rap.service.api import BadRequest, parse_plan_request
+    from rap.serve.api import BadRequest, parse_plan_request
 
     asm = json.loads((ROOT / "assemblies" / "hexagon.json").read_text())
     doc = []

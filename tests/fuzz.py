@@ -1,5 +1,5 @@
 """Hypothesis strategies for hostile assembly input: JSON text that a careless user or an attacker
-sends (shared by tests/test_fuzz_inputs.py and the service's fuzz test in tests/service/test_http_app.py).
+sends (shared by tests/test_fuzz_inputs.py and the service's fuzz test in tests/serve/test_http_app.py).
 
 ``assembly_texts()`` draws the text of an assembly file: a valid base assembly with one or more
 mutations (a coordinate replaced by an adversarial number, a value of the wrong type, a duplicate

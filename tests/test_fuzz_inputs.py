@@ -1,7 +1,7 @@
 """Fuzzing the readers with hostile input (tests/fuzz.py): every answer is one line, in bounded time.
 
 Files go through ``rap.io.load_assembly`` (what every command reads with) and request bodies
-through ``rap.service.api.parse_plan_request`` (the service's reader, which imports neither ray nor
+through ``rap.serve.api.parse_plan_request`` (the service's reader, which imports neither ray nor
 fastapi); a few hand-picked hostile files go through the console script itself. The time bound
 is the harness's: Hypothesis's per-example ``deadline`` and the subprocess ``timeout``, never an
 assertion on a measured time. ``RAP_FUZZ_EXAMPLES`` raises the number of examples (default 200).
@@ -23,7 +23,7 @@ from hypothesis import HealthCheck, given, settings
 
 from rap.assembly import Assembly, AssemblyError, assembly_to_json
 from rap.client import exact_json
-from rap.service.api import BadRequest, parse_plan_request
+from rap.serve.api import BadRequest, parse_plan_request
 from rap.io import load_assembly
 from rap.plan.methods import DEFAULT_METHOD, METHODS
 from rap.seeds import DEFAULT_ROOT_SEED

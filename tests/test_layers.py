@@ -1,5 +1,5 @@
 """The package's import graph: layers import downward only, no cycles, ray only in the orchestration
-layer (rap.farm, rap.service).
+layer (rap.farm, rap.serve).
 
 Every ``import`` of a ``rap`` module counts, including those inside functions (a lazy import is
 still a dependency). The graph is read from the source with ``ast``; nothing is imported.
@@ -21,7 +21,7 @@ LAYERS = {
     "rap.geometry": 2, "rap.io": 3, "rap.enumerate": 3,
     "rap.sim": 4, "rap.render": 4, "rap.dataset": 4,
     "rap.model": 5, "rap.labelling": 5, "rap.plan": 6, "rap.experiment": 7, "rap.robot": 7,
-    "rap.farm": 8, "rap.service": 9, "rap.commands": 10, "rap.cli": 11,
+    "rap.farm": 8, "rap.serve": 9, "rap.commands": 10, "rap.cli": 11,
     "rap.files": 0, "rap.client": 10, "rap.cad": 3,
 }
 
@@ -83,10 +83,10 @@ def test_layers_import_downward_only():
 
 
 # the orchestration layer: the labelling farm and the planning service that runs on its pool
-ORCHESTRATION = ("rap.farm", "rap.service")
+ORCHESTRATION = ("rap.farm", "rap.serve")
 # modules of the orchestration packages that must stay free of ray (imported by tests and the CLI
 # without starting anything)
-RAY_FREE = ("rap.service.api", "rap.service.examples", "rap.service.robot_program")
+RAY_FREE = ("rap.serve.api", "rap.serve.examples", "rap.serve.robot_program")
 
 
 def test_only_the_orchestration_layer_imports_ray():

@@ -94,7 +94,7 @@ def experiment_command(
             raise InputError(f"{exc.for_name('--model')} (use --models for hold-out "
                              f"models)") from None
 
-    import rap.service.planning as service
+    import rap.serve.planning as service
     from rap.farm.pool import SimPool
     from rap.farm.runtime import connect
 

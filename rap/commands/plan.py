@@ -6,7 +6,7 @@ Where the work happens:
   a batch of eight or more simulations is spread over forked worker processes on this machine
   (``--workers``, default every CPU; ``LocalSimulator``), so a small plan takes a few seconds;
 * ``--address HOST:PORT|auto`` (or ``RAY_ADDRESS``, as in a Ray Job): on a Ray cluster, through a
-  planning actor and a pool of simulation actors (``rap.service.planning``);
+  planning actor and a pool of simulation actors (``rap.serve.planning``);
 * ``--server URL``: by a running planning service (``rap-farm serve``), over HTTP (``rap.client``);
   the table, ``--out`` and ``--picture`` are the same as for a local plan.
 
@@ -268,7 +268,7 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
                           _local_workers(workers), err, options,
                           progress=console if hasattr(console, "scorer_progress") else None,
                           constraints=settings.get("constraints")), False
-    import rap.service.planning as service
+    import rap.serve.planning as service
 
     if model_path is not None:
         _familiarity(asm, _load_cnn(model_path), space, err)

@@ -1,4 +1,4 @@
-"""``rap-farm serve``: the planning service over HTTP (Ray Serve + FastAPI, ``rap.service.http_app``).
+"""``rap-farm serve``: the planning service over HTTP (Ray Serve + FastAPI, ``rap.serve.http_app``).
 
 Keeps the CNN and a pool of simulation actors warm and answers ``POST /plan`` with the document
 ``rap-farm plan --out`` writes. Binds to 127.0.0.1 unless ``--host`` says otherwise; any other
@@ -45,7 +45,7 @@ def serve_command(
         s.replace("Planning with --method sim (simulator only) instead",
                   "Requests for method rap will be refused")))
     cache_path = None if no_cache else (cache or default_cache_path())
-    from rap.service.api import ServeConfig
+    from rap.serve.api import ServeConfig
 
     config = ServeConfig(host=host, port=port, model_path=model_path, workers=workers,
                          cache_path=str(cache_path) if cache_path else None, token=token,
@@ -53,7 +53,7 @@ def serve_command(
     config.check()  # before starting Ray: a refused configuration costs nothing
     if address is not None and not address.strip():
         raise InputError("--address: empty")
-    from rap.service.launch import run_service
+    from rap.serve.launch import run_service
 
     run_service(config, address=address, echo=lambda s: err.print(s, highlight=False))
 

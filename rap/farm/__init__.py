@@ -1,4 +1,4 @@
-"""The labelling farm, the orchestration layer with ``rap.service`` (the only packages that import
+"""The labelling farm, the orchestration layer with ``rap.serve`` (the only packages that import
 ``ray``): it runs ``rap.labelling`` on Ray.
 
 * ``rap.farm.runtime``: start an embedded Ray or join a cluster (``connect``).

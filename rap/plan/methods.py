@@ -9,7 +9,7 @@ needs a model, and ``build()``, its planner. Everything that takes a method read
 * ``make_planner(name, **options)``: the front door ``rap.plan.plan`` plans with it (so do the
   CLI, the planning service and the experiment, through the door);
 * ``rap-farm plan`` makes its flags of the options, the service accepts them in a request's
-  ``options`` (``rap.service.api``), and both ask ``needs_model``;
+  ``options`` (``rap.serve.api``), and both ask ``needs_model``;
 * the experiment names planners ``rap-k2-p90``, ``search-s200-o10`` (``from_table_name``).
 
 Adding a method is one options class and planner, registered with ``register``

@@ -132,7 +132,7 @@ def test_the_request_body_for_a_drawing_is_its_imported_assembly(tmp_path):
     from decimal import Decimal
 
     from rap.client import plan_body
-    from rap.service.api import parse_plan_request
+    from rap.serve.api import parse_plan_request
     path = F.dxf_seven(tmp_path)
     body = plan_body(path, "sim", seed=3)
     assembly, method, seed, options, _ = parse_plan_request(body)

@@ -120,7 +120,7 @@ def test_a_plan_whose_simulations_lose_their_actors_still_gets_its_answer(ray_lo
     """The planning service's pool: five results in a row lost with their actors (died); the plan
     is found, and it is the plan of a run where nothing was lost."""
     from rap.farm.pool import SimPool
-    from rap.service.planning import PlanningService, PlanRequest
+    from rap.serve.planning import PlanningService, PlanRequest
     from rap.plan.report.result import PlanStatus
 
     hexagon = load_assembly(ASSEMBLIES / "hexagon.json")

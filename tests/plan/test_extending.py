@@ -11,7 +11,7 @@ from typing import ClassVar
 import pytest
 
 from rap.errors import ParameterError
-from rap.service.api import BadRequest, parse_plan_request
+from rap.serve.api import BadRequest, parse_plan_request
 from rap.plan.scoring.cache import ScoreCache
 from rap.experiment.run import method_planner
 from rap.plan.graph import Interlocked, assembly_order

@@ -42,7 +42,7 @@ def test_a_missing_model_is_one_line():
         plan(memory(ROW3), "rap", model="missing.pt", simulator=HashSim())
 
 
-@pytest.mark.parametrize("caller", ["rap/commands/plan.py", "rap/service/planning.py",
+@pytest.mark.parametrize("caller", ["rap/commands/plan.py", "rap/serve/planning.py",
                                     "rap/experiment/run.py"])
 def test_the_pipeline_is_assembled_only_at_the_door(caller):
     """The callers plan through ``rap.plan.plan``; none of them calls a planner's ``solve``."""

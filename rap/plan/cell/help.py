@@ -1,5 +1,5 @@
 """The robot cell's parameters in words: one home for the help of ``rap-farm plan``'s cell flags
-(``rap.commands._cell_flags``), the service's ``"constraints"`` schema (``rap.service.api``) and the
+(``rap.commands._cell_flags``), the service's ``"constraints"`` schema (``rap.serve.api``) and the
 planning page's tooltips (which read them from ``/openapi.json``).
 
 ``CELL_HELP``: parameter (``rap.plan.cell.constraints.CellConstraints``' fields, the keys of its JSON

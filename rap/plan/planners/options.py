@@ -25,7 +25,7 @@ Everything that reads options reads them here:
   this is the one place options are checked; ``of(**given)`` keeps the given values (None: the
   default) of the options the method declares;
 * ``rap-farm plan`` makes its flags from the declarations (``Option.help_text``, ranges);
-* the planning service reads a request's ``options`` by them (``rap.service.api``);
+* the planning service reads a request's ``options`` by them (``rap.serve.api``);
 * the experiment's method names (``rap-k2-p90``, ``search-s200-o10``, ``rap-paper`` from
   ``presets``) are read by ``from_table_name`` and written by ``table_name``.
 

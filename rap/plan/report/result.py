@@ -14,7 +14,7 @@ returned sequence is evaluated by the simulator); ``source`` what chose it (``"c
 travel, in the assembly's units; ``rap.plan.report.poses``).
 
 ``PlanResult.to_json()`` is the ``rap-farm plan --out`` document and the body of the planning
-service's answer (``rap.service.http_app``); ``PlanResult.from_json(doc)`` reads it back (what
+service's answer (``rap.serve.http_app``); ``PlanResult.from_json(doc)`` reads it back (what
 ``rap-farm plan --server`` prints and writes), so ``from_json(doc).to_json() == doc``. A step's
 direction is written as ``"insertion"``; documents of earlier versions, with ``"direction"`` and
 without the intervals, reasons and robot moves, are read too. The keys are documented in

@@ -5,7 +5,7 @@ A planner sees one object, ``Scorer``, with two questions:
 * ``scores(problem, ops) -> list[float]``: the simulator's score of each operation, in input order.
   Scores already known are taken from the ``ScoreCache`` (content key + root seed, see
   ``rap.plan.scoring.cache``); the rest go to the simulator backend in ONE call, so a backend that runs
-  them in parallel (the Ray ``SimPool``, ``rap.service.planning.PoolSimulator``) sees the whole batch.
+  them in parallel (the Ray ``SimPool``, ``rap.serve.planning.PoolSimulator``) sees the whole batch.
 * ``prob_high(problem, ops) -> float [N]``: the CNN's P(high) for each operation, one batch;
   ``expected_scores(problem, ops)``: its expected success rate (the binomial head's calibrated
   score; what search multiplies); ``prob_high_and_expected``: both from one pass (what RAP ranks

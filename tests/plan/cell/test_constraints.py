@@ -359,7 +359,7 @@ def test_the_command_plans_the_side_peg_from_the_side_only(capsys, tmp_path):
 
 
 def test_the_service_reads_and_checks_constraints():
-    from rap.service.api import BadRequest, parse_plan_request
+    from rap.serve.api import BadRequest, parse_plan_request
 
     asm = json.loads((CELLS / "side-peg.json").read_text())
     body = {"assembly": asm, "method": "sim",

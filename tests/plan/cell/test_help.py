@@ -1,5 +1,5 @@
 """The robot cell's help (rap.plan.cell.help): one line per parameter of ``CellConstraints``,
-shown by the CLI's flags and the service's schema (the page's tooltips: tests/service/test_page.py)."""
+shown by the CLI's flags and the service's schema (the page's tooltips: tests/serve/test_page.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from dataclasses import fields
 import typer
 
 from rap.cli import app
-from rap.service.api import PLAN_BODY_OPENAPI
+from rap.serve.api import PLAN_BODY_OPENAPI
 from rap.plan.cell.help import CELL_HELP
 from rap.plan.cell.constraints import CellConstraints
 

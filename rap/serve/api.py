@@ -6,7 +6,7 @@ optimum, whose search visits every reachable subassembly), ``max_simulations`` f
 and ``plan_budget_s`` seconds of search; a request that reaches a budget gets the
 ``"feasible": null, "status": "budget spent"`` document. Reading and validating take at most
 ``parse_budget_s`` and the whole answer at most ``plan_budget_s + answer_grace_s``; past either the
-service answers 503 (``rap.service.http_app`` runs both off its event loop).
+service answers 503 (``rap.serve.http_app`` runs both off its event loop).
 
 ``ServeConfig`` holds every setting of ``rap-farm serve`` (``check()`` refuses, in one line, what
 must not start: a non-loopback host without a bearer token, a short token, a bad port).
@@ -22,7 +22,7 @@ true, "directions": ["0,-1:30"], "gravity": "0,-1", "friction": 0.5, "layers": t
 flags are (one-line 400 naming ``constraints.KEY``; the base must be a part of the assembly). ``read_upload(name, body)`` reads an
 uploaded file (``POST /import``, ``/inspect``): a drawing (.dxf, .svg) or an assembly file (.json),
 written under its own name in a temporary directory and read by ``rap.io.load_assembly``, which
-chooses the reader by the suffix; its errors name the file as the client did. ``rap.service.http_app``
+chooses the reader by the suffix; its errors name the file as the client did. ``rap.serve.http_app``
 serves them over HTTP.
 """
 

@@ -8,7 +8,7 @@ import pytest
 
 from rap.assembly import assembly_to_json
 from rap.errors import InputError
-from rap.service.api import BadRequest, ServeConfig, is_loopback, parse_plan_request
+from rap.serve.api import BadRequest, ServeConfig, is_loopback, parse_plan_request
 from rap.geometry.families.simple import grid
 from rap.seeds import DEFAULT_ROOT_SEED
 
@@ -107,7 +107,7 @@ def test_a_hundred_part_drawing_is_a_question_not_a_refusal():
 
     from rap.assembly import LIMITS, assembly_to_json
     from rap.geometry.families.simple import grid
-    from rap.service.api import ServeConfig
+    from rap.serve.api import ServeConfig
 
     body = _json.dumps({"assembly": assembly_to_json(grid(10)), "method": "search"}).encode()
     assert len(parse_plan_request(body)[0]) == 100

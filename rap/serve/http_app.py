@@ -1,6 +1,6 @@
 """The planning service over HTTP: a Ray Serve application with a FastAPI ingress (``rap-farm serve``).
 
-One Serve replica, ``PlanningApp``, holds a ``rap.service.planning.PlanningService``: the CNN loaded
+One Serve replica, ``PlanningApp``, holds a ``rap.serve.planning.PlanningService``: the CNN loaded
 once, one content-keyed score cache, and a ``SimPool`` of simulation actors (one per CPU of the Ray
 cluster unless ``workers``), all kept warm between requests. The replica asks for no CPU itself and
 runs on the head node, like Serve's HTTP proxy (``proxy_location="HeadOnly"``): on a cluster the
@@ -10,18 +10,18 @@ Endpoints (OpenAPI document at ``/openapi.json``, interactive docs at ``/docs`` 
 whose Swagger UI and ReDoc files come from the fastapi-offline package, not a CDN: they work
 offline):
 
-* ``GET /``: the planning page (``rap/service/static``: plain HTML, CSS and JS, no build step, no
+* ``GET /``: the planning page (``rap/serve/static``: plain HTML, CSS and JS, no build step, no
   other host): choose or drop a drawing or assembly file, see its parts and NDBG circle, plan with
   a method, a seed and optionally the robot cell's constraints through ``POST /plan``, step
   through the plan as a storyboard, download the plan JSON and the storyboard (PNG or SVG), or
   try a shipped example with one click. Its requests carry the token typed in the page.
 * ``GET /examples``: ``[{"name", "parts"}]``, the example assemblies shipped in the package;
-  ``GET /examples/{name}``: one's assembly JSON, 404 for another name (``rap.service.examples``).
+  ``GET /examples/{name}``: one's assembly JSON, 404 for another name (``rap.serve.examples``).
 * ``GET /health``: 200 ``{"status": "ok", ...}`` once the model is loaded and every simulation
   actor has started (before that, Serve answers 503 or the connection is refused).
 * ``POST /plan``: body ``{"assembly": <assembly JSON object>, "method": "rap"|"sim"|"optimal"|
   "random"|"search" (default "search"), "seed": <int> (optional), "options": {...} (optional: the
-  method's planner options, ``rap.service.api.PLANNER_OPTIONS``), "constraints": {...} (optional: the
+  method's planner options, ``rap.serve.api.PLANNER_OPTIONS``), "constraints": {...} (optional: the
   robot cell's, ``rap.plan.cell.constraints.CellConstraints.from_json``)}``. 200 with exactly the document that
   ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
   ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
@@ -30,10 +30,10 @@ offline):
   the table).
 * ``POST /import?name=FILE``: the body is a file's bytes, a drawing (``.dxf``, ``.svg``) or an
   assembly file (``.json``), read by ``rap.io.load_assembly`` as the CLI reads it
-  (``rap.service.api.read_upload``); 200 with its assembly JSON (what ``rap-farm import`` writes).
+  (``rap.serve.api.read_upload``); 200 with its assembly JSON (what ``rap-farm import`` writes).
 * ``POST /inspect?name=FILE``: the same, and its NDBG: ``{"assembly": <assembly JSON>, "cells":
   [{"kind", "direction", "partitions"}]}`` (``inspect_document``), what the page draws.
-* ``POST /export``: a plan's checked robot program as an attachment (``rap.service.robot_program``).
+* ``POST /export``: a plan's checked robot program as an attachment (``rap.serve.robot_program``).
 
 Bad requests get a 4xx status and ``{"error": "<one line>"}``: 400 for a body that is not JSON or
 not an object of those keys, an invalid assembly (the one-line ``AssemblyError`` text of the CLI,
@@ -52,10 +52,10 @@ Concurrency: each request is planned on one of ``max_concurrent`` threads of the
 requests' simulation batches go to the shared pool at the same time (``SimPool`` keeps its
 bookkeeping thread-safe), CNN forward passes take turns. Further requests wait in Serve's queue.
 
-The request contract (``ServeConfig``, ``parse_plan_request``) lives in ``rap.service.api``, which
+The request contract (``ServeConfig``, ``parse_plan_request``) lives in ``rap.serve.api``, which
 imports neither ray nor fastapi.
 
-Running it: ``rap.service.launch.run_service``. Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
+Running it: ``rap.serve.launch.run_service``. Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
 with a token every endpoint but the documentation, the page's static files and the examples needs
 ``Authorization: Bearer <token>`` (the page sends it on each of its requests). The token
 travels in clear text over plain HTTP: beyond one machine, put the service behind TLS (a reverse
@@ -90,17 +90,17 @@ from rap.errors import InputError, RapError
 from rap.plan.methods import needs_model
 from rap.plan.scoring.scorer import Budget
 
-from rap.service.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
+from rap.serve.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
                           BadRequest, ServeConfig, parse_plan_request, read_upload)
-from rap.service import robot_program
-from rap.service.examples import UnknownExample, example, example_list
+from rap.serve import robot_program
+from rap.serve.examples import UnknownExample, example, example_list
 
 __all__ = ["PlanningApp", "build_app", "inspect_document", "APP_NAME", "STATIC_DIR",
            "STOP_GRACE_S"]
 
 APP_NAME = "rap-farm"
 STOP_GRACE_S = 30.0  # on stop (SIGTERM, Ctrl-C), requests in flight get this long to finish
-_log = logging.getLogger("rap.service.http_app")
+_log = logging.getLogger("rap.serve.http_app")
 
 
 def _error(status: int, message: str, headers: dict | None = None) -> JSONResponse:
@@ -130,7 +130,7 @@ _bearer = HTTPBearer(auto_error=False, description="Needed when the service was 
 
 @api.get("/", include_in_schema=False)
 async def page():
-    """The planning page (rap/service/static): upload, NDBG circle, plan, storyboard."""
+    """The planning page (rap/serve/static): upload, NDBG circle, plan, storyboard."""
     return FileResponse(STATIC_DIR / "index.html")
 
 
@@ -191,7 +191,7 @@ class PlanningApp:
     """The replica (see module doc). ``config``: ``ServeConfig`` fields as a dict."""
 
     def __init__(self, config: dict):
-        from rap.service.planning import PlanningService
+        from rap.serve.planning import PlanningService
         from rap.sim.params import SimParams
 
         self.config = ServeConfig(**config)
@@ -287,7 +287,7 @@ class PlanningApp:
                                     fn, *args, body)
 
     def _plan(self, assembly, method: str, seed: int, options: dict, constraints=None):
-        from rap.service.planning import PlanRequest
+        from rap.serve.planning import PlanRequest
 
         req = PlanRequest(assembly, method, self.params, seed, planner_options=options,
                           constraints=constraints,
@@ -373,7 +373,7 @@ class PlanningApp:
               openapi_extra=robot_program.EXPORT_OPENAPI)
     async def export(self, request: Request,
                      creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
-        """The plan's robot program as an attachment (``rap.service.robot_program``)."""
+        """The plan's robot program as an attachment (``rap.serve.robot_program``)."""
         read = await self._read_request(request, creds, "the export request", lambda body: (
             robot_program.parse_export_request(body, max_parts=self.config.max_parts,
                                                max_vertices=self.config.max_vertices)))

@@ -19,7 +19,7 @@ arm cannot build (``TwoHandedPlan``: made without a fixture, ``plan --base``, or
 needs a second hand) and for a step out of the arm's reach (``Unreachable``: the step, the
 waypoint, the point and the limit); 400 for a part the suction cup finds no place on.
 
-No ray and no fastapi here (``rap.service.http_app`` serves it, off its event loop); pybullet is
+No ray and no fastapi here (``rap.serve.http_app`` serves it, off its event loop); pybullet is
 imported on the first ``program_file``. Cost: one JSON parse and the assembly's exact validation,
 then O(waypoints) for the program and about 50 IK solves a step for the check (0.3 ms each; the
 22-step wall in under 1 s, docs/ROBOT.md).
@@ -39,7 +39,7 @@ from rap.errors import InputError
 from rap.plan.report.result import PlanResult, is_assembly_order
 from rap.robot.cell import Cell, parse_cell
 from rap.robot.inputs import check_assembly, plan_of
-from rap.service.api import BadRequest, request_assembly, request_object
+from rap.serve.api import BadRequest, request_assembly, request_object
 
 __all__ = ["EXPORT_KEYS", "EXPORT_FORMATS", "DEFAULT_FORMAT", "PROGRAM_DETAILS_HEADER",
            "ExportRequest", "ProgramFile", "parse_export_request", "program_file",

@@ -1,5 +1,5 @@
 """The page's example assemblies without a service: the package's own files, read once, and only
-their names looked up (``rap.service.examples``)."""
+their names looked up (``rap.serve.examples``)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import rap
 from rap.assembly import assembly_to_json
 from rap.errors import InputError
 from rap.io import load_assembly
-from rap.service.examples import EXAMPLES_DIR, UnknownExample, example, example_list
+from rap.serve.examples import EXAMPLES_DIR, UnknownExample, example, example_list
 
 
 def test_the_examples_are_the_shipped_reference_assemblies():

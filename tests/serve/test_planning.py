@@ -23,7 +23,7 @@ def test_service_serves_two_concurrent_requests_on_the_pool(ray_local):
     import ray
 
     from rap.farm.pool import SimPool
-    from rap.service.planning import PlanRequest, start_service
+    from rap.serve.planning import PlanRequest, start_service
     from rap.plan.planners.greedy import SimPlanner
     from rap.plan.problem import PlanningProblem
     from rap.plan.scoring.local_simulator import LocalSimulator
@@ -57,7 +57,7 @@ def test_concurrent_callers_share_simulations_in_flight():
     import threading
     import time
 
-    from rap.service.planning import SharedSimulations
+    from rap.serve.planning import SharedSimulations
     from rap.plan.scoring.cache import CachedScore
     from rap.plan.problem import PlanningProblem
 

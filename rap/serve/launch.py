@@ -1,4 +1,4 @@
-"""Running the planning service: start or join Ray, deploy ``rap.service.http_app``'s application on
+"""Running the planning service: start or join Ray, deploy ``rap.serve.http_app``'s application on
 Ray Serve, wait until it is healthy, and serve until interrupted (``rap-farm serve``)."""
 
 import json
@@ -16,8 +16,8 @@ from ray import serve
 
 from rap.errors import InputError
 
-from rap.service.api import ServeConfig
-from rap.service.http_app import APP_NAME, build_app
+from rap.serve.api import ServeConfig
+from rap.serve.http_app import APP_NAME, build_app
 
 __all__ = ["run_service", "wait_healthy"]
 
@@ -63,7 +63,7 @@ def run_service(config: ServeConfig, *, address: str | None = None,
                 stop: threading.Event | None = None) -> None:
     """Start (or join) Ray, deploy the service, print where it listens and serve until SIGINT or
     SIGTERM (or ``stop`` is set); then remove it, which stops taking requests and gives those in
-    flight ``rap.service.http_app.STOP_GRACE_S`` (30 s) to finish (and stop the embedded Ray, if
+    flight ``rap.serve.http_app.STOP_GRACE_S`` (30 s) to finish (and stop the embedded Ray, if
     started here)."""
     from rap.farm.runtime import connect
 

@@ -1,7 +1,7 @@
 """The planning page at ``/`` of ``rap-farm serve`` in a real headless browser, and the endpoints
 behind it (``POST /import``, ``POST /inspect``, ``POST /export``), and ``/docs`` offline.
 
-The service is the one of tests/service/test_http_app.py (a subprocess on a free loopback port, with a
+The service is the one of tests/serve/test_http_app.py (a subprocess on a free loopback port, with a
 token); the browser is Debian's ``chromium`` driven by Playwright (``executable_path``: Playwright's
 own browser download does not work offline). Every request the browser makes to another host than
 the service is refused and recorded, and none may be made. Where Playwright or chromium is missing
@@ -31,7 +31,7 @@ from rap.plan.report.result import PlanResult, PlanStep
 from rap.plan.report.validate import check_plan
 
 from tests.farm.conftest import ASSEMBLIES, ROOT
-from tests.service.test_http_app import DOVETAIL, TOKEN, _body, _call, _same_plan, service  # noqa: F401
+from tests.serve.test_http_app import DOVETAIL, TOKEN, _body, _call, _same_plan, service  # noqa: F401
 
 pytestmark = [pytest.mark.ray, pytest.mark.slow]
 
@@ -175,7 +175,7 @@ def test_uploads_need_the_token_and_the_page_does_not(service):
 def test_the_examples_are_public_and_only_the_shipped_ones(service):
     """GET /examples and /examples/NAME answer without a token (the package's own data, as the
     page); any other name is a 404 and one line."""
-    from rap.service.examples import EXAMPLES_DIR, example_list
+    from rap.serve.examples import EXAMPLES_DIR, example_list
 
     assert _call(service, "/examples", token=None)[:2] == (200, example_list())
     status, doc, headers = _call(service, "/examples/hexagon", token=None)
@@ -351,7 +351,7 @@ def test_the_page_shows_the_plan_the_api_gives(page, service, tmp_path):
 def test_an_example_is_one_click_and_planned_as_a_dropped_file(page, service, tmp_path):
     """The page offers the shipped examples before any file: a button (here pressed from the
     keyboard) reads one as a dropped NAME.json through /inspect and plans it at once."""
-    from rap.service.examples import EXAMPLES_DIR, example_list
+    from rap.serve.examples import EXAMPLES_DIR, example_list
 
     open_page(page, service)
     page.wait_for_selector("#examples:not([hidden]) button")

@@ -1,4 +1,4 @@
-"""POST /export's contract without a service (rap.service.robot_program): the program of a plan
+"""POST /export's contract without a service (rap.serve.robot_program): the program of a plan
 and its assembly as rap-farm export writes it, its file name, and the one-line refusals."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import pytest
 from rap.robot.cell import Cell
 from rap.robot.program import build_program
 from rap.robot.writers import urscript, waypoints_csv, waypoints_json
-from rap.service.api import BadRequest
-from rap.service.robot_program import (PROGRAM_DETAILS_HEADER, parse_export_request,
+from rap.serve.api import BadRequest
+from rap.serve.robot_program import (PROGRAM_DETAILS_HEADER, parse_export_request,
                                        program_file)
 
 from tests.robot.cases import STACK, STACK_PLAN

@@ -21,7 +21,7 @@ Concurrent requests share the pool without waiting for each other: each request'
 own tasks on the pool's actors, and ``SimPool`` keeps its bookkeeping thread-safe. An operation that
 one request is already simulating is not simulated again for another: the second waits for the
 first's result (``SharedSimulations``), which is the score it would have computed itself. The HTTP service
-(``rap.service.http_app``) holds one ``PlanningService`` object in its Ray Serve replica.
+(``rap.serve.http_app``) holds one ``PlanningService`` object in its Ray Serve replica.
 """
 
 from __future__ import annotations
