@@ -1,13 +1,15 @@
-"""Planning at scale: the default planner against simulator-only greedy (and the optimum), 7 to 100 parts.
+"""Planning at scale: the default planner, simulator-only greedy and the optimum, 7 to 100 parts.
 
     python benchmarks/plan_scale.py [--kinds herringbone,wall,grid,convex,polyomino,packing]
         [--sizes 18,22,25,30,36,44,49,60,100] [--seed 11] [--assembly-seed 0]
-        [--optimum-max-parts 12] [--optimum-max-operations 3000] [--json rows.json] [--quick]
+        [--assemblies herringbone:18,wall:22,...] [--optimum-max-parts 12]
+        [--optimum-max-operations 3000] [--workers 1] [--json rows.json] [--quick]
 
 Builds seeded assemblies of several kinds (``assemblies_for``; a rerun builds the same ones) and
 plans each in this process through the front door, ``rap.plan.plan`` (what ``rap-farm plan A.json
---no-cache --seed 11`` runs), with the same seed for every method, a fresh score cache each and the
-shipped model loaded once: the default (``search``), simulator-only greedy (``sim``) and, where the
+--no-cache --seed 11`` runs), with the same seed for every method, a fresh score cache each, the
+shipped model loaded once and the simulations in this process (``--workers``: more processes, as
+the CLI uses every CPU): the default (``search``), simulator-only greedy (``sim``) and, where the
 budget allows it (at most ``--optimum-max-parts`` parts and ``--optimum-max-operations`` operations
 in the AND/OR graph), the optimum (``optimal``, which simulates every operation). The default and
 greedy of one assembly run back to back, so their ratios are measured under the same load.
@@ -44,7 +46,7 @@ assemblies the default's R >= greedy's, the geometric mean of R ratios, time rat
 parts (the default's R and time over the optimum's). The CPU count and load average are printed:
 times depend on what else runs, ratios less so. No timing is asserted anywhere.
 
-``--quick``: a smoke run (three small kinds at 6 to 8 parts, 10 trials a simulation).
+``--quick``: a smoke run (``QUICK``: three kinds at 6 and 7 parts, 10 trials a score).
 """
 
 from __future__ import annotations
@@ -260,16 +262,25 @@ def assemblies_for(kinds, sizes=None, seed: int = 0):
 
 
 # -- planning ----------------------------------------------------------------------------------
-def _run(asm, method, model, seed, params) -> dict:
+def _run(asm, method, model, seed, params, workers: int = 1) -> dict:
     from rap.plan import plan
+    from rap.plan.scoring.local_simulator import LocalSimulator
 
     t = time.perf_counter()
-    r = plan(asm, method, model=model, seed=seed, params=params)
+    if workers > 1:  # as ``rap-farm plan`` does (every CPU); the front door's own: in-process
+        sim = LocalSimulator(processes=workers)
+        try:
+            r = plan(asm, method, model=model, seed=seed, params=params, simulator=sim)
+        finally:
+            sim.close()
+    else:
+        r = plan(asm, method, model=model, seed=seed, params=params)
     wall = time.perf_counter() - t
     scores = [s.score for s in r.steps]
     stats = r.stats
     share = None
-    if stats.get("operations") and "predicted_operations" in stats and stats.get("search") != "beam":
+    if (stats.get("operations") and "predicted_operations" in stats
+            and stats.get("search") != "beam"):
         share = stats["predicted_operations"] / stats["operations"]
     bound = r.bound or {}
     return {"status": r.status.value, "seconds": r.seconds, "wall_s": wall,
@@ -369,7 +380,8 @@ def main(argv=None) -> list[dict]:
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--kinds", default=None,
-                    help=f"comma-separated, of {', '.join(KINDS)} (default: {', '.join(DEFAULT_SIZES)})")
+                    help=f"comma-separated, of {', '.join(KINDS)} "
+                         f"(default: {', '.join(DEFAULT_SIZES)})")
     ap.add_argument("--sizes", default=None, help="comma-separated part counts (default: each "
                                                   "kind's own list)")
     ap.add_argument("--assemblies", default=None, help="comma-separated KIND:N pairs, run in this "
@@ -381,6 +393,8 @@ def main(argv=None) -> list[dict]:
                     help="skip the optimum when the AND/OR graph has more operations")
     ap.add_argument("--trials", type=int, default=None, help="simulator trials a score "
                                                              "(default: SimParams's, 100)")
+    ap.add_argument("--workers", type=int, default=1, help="simulation processes a plan (default "
+                    "1: in this process, as rap.plan.plan; rap-farm plan uses every CPU)")
     ap.add_argument("--json", default=None, help="write the rows to this file")
     ap.add_argument("--quick", action="store_true", help="a smoke run: " + ", ".join(
         f"{k} {'/'.join(map(str, v))}" for k, v in QUICK.items()) + ", 10 trials")
@@ -405,7 +419,8 @@ def main(argv=None) -> list[dict]:
     params = SimParams() if trials is None else SimParams(trials=trials)
     load0 = os.getloadavg()
     print(f"plan_scale: {os.cpu_count()} CPUs, load average {load0[0]:.2f} at start; planning "
-          f"seed {a.seed}, assembly seed {a.assembly_seed}, {params.trials} trials a score")
+          f"seed {a.seed}, assembly seed {a.assembly_seed}, {params.trials} trials a score, "
+          f"{a.workers} simulation process{'es' if a.workers > 1 else ''} a plan")
     model = OperationPredictor.load(SHIPPED_MODEL, engine="auto")
     for method in ("search", "sim"):  # warm-up: the first plan loads the calibration, the engine
         _run(grid(4), method, model, a.seed, SimParams(trials=2))
@@ -418,13 +433,16 @@ def main(argv=None) -> list[dict]:
                 continue
             row = {"kind": kind, "name": asm.name, "parts": len(asm),
                    "load": os.getloadavg()[0]}
-            row["default"] = _run(asm, "search", model, a.seed, params)
-            row["sim"] = _run(asm, "sim", model, a.seed, params)
+            row["default"] = _run(asm, "search", model, a.seed, params, a.workers)
+            row["sim"] = _run(asm, "sim", model, a.seed, params, a.workers)
             row["optimal"] = None
             if len(asm) <= a.optimum_max_parts:
                 ops = _graph_operations(asm, a.seed, params, a.optimum_max_operations)
                 if ops is not None:
-                    row["optimal"] = _run(asm, "optimal", model, a.seed, params)
+                    row["optimal"] = _run(asm, "optimal", model, a.seed, params, a.workers)
+                else:
+                    row["optimal_skipped"] = (f"the graph has over {a.optimum_max_operations} "
+                                              f"operations")
             d, g = row["default"], row["sim"]
             row["time_ratio"] = _ratio(d["seconds"], g["seconds"])
             row["r_ratio"] = _ratio(d["robustness"], g["robustness"])
@@ -451,7 +469,7 @@ def _write_json(a, argv, params, load0, rows) -> None:
                                 *(argv if argv is not None else sys.argv[1:])]),
            "cpus": os.cpu_count(), "load_start": load0[0], "load_now": os.getloadavg()[0],
            "seed": a.seed, "assembly_seed": a.assembly_seed, "trials": params.trials,
-           "rows": rows, "summary": summary(rows)}
+           "workers": a.workers, "rows": rows, "summary": summary(rows)}
     tmp = Path(str(a.json) + ".tmp")
     tmp.write_text(json.dumps(doc, indent=1, default=str) + "\n")
     tmp.replace(a.json)
