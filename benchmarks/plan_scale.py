@@ -323,7 +323,8 @@ def _gmean(xs):
 
 
 def _band(rows, lo, hi):
-    return [r for r in rows if lo <= r["parts"] <= hi and r["time_ratio"] is not None]
+    return [r for r in rows if lo <= r["parts"] <= hi and r["time_ratio"] is not None
+            and r["r_ratio"] is not None]
 
 
 def summary(rows) -> list[str]:
