@@ -291,7 +291,8 @@ def _run(asm, method, model, seed, params, workers: int = 1) -> dict:
             "bound": bound.get("robustness_upper"), "scope": bound.get("scope"),
             "search": stats.get("search"), "operations": stats.get("operations"),
             "predicted_operations": stats.get("predicted_operations"), "scored_share": share,
-            "message": r.message if not r.found else ""}
+            "message": r.message if not r.found else "",
+            "stats": {k: v for k, v in stats.items() if isinstance(v, (int, float, str))}}
 
 
 def _ratio(a, b):
