@@ -217,7 +217,7 @@ BAD_REQUESTS = [
      + b", 0], [1, 0], [0, 1]]}]}}", 400),
     ("too large", b"{\"assembly\": \"" + b"x" * (2 << 20) + b"\"}", 413),
     ("too many parts", _body({"parts": [{"id": f"p{i}", "polygon": [[i, 0], [i + 1, 0], [i, 1]]}
-                                        for i in range(100)]}), 413),
+                                        for i in range(1001)]}), 413),  # past the input bounds
 ]
 
 

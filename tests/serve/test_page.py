@@ -148,7 +148,8 @@ BAD_UPLOADS = [
      "x.json: part 'a'"),
     ("too many parts", "/import?name=many.json",
      json.dumps({"parts": [{"id": f"p{i}", "polygon": [[i, 0], [i + 1, 0], [i, 1]]}
-                           for i in range(100)]}).encode(), 413, "many.json: 100 parts"),
+                           for i in range(1001)]}).encode(), 400,  # past the input bounds
+     "many.json: 1001 parts; at most 1000 are read"),
     ("too large", "/inspect?name=big.json", b" " * (2 << 20), 413, "request body over"),
 ]
 
