@@ -338,12 +338,12 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
             if sim.prestarted:
                 cnn.cores_busy = sim.loading
         cache_obj = ScoreCache(cache_path)
-        make_planner(method, **(options or {}))  # a bad option fails before the NDBG is built
+        planner = make_planner(method, **(options or {}))  # a bad option fails before the NDBG
         progress.update("building the NDBG")
         problem.candidates(problem.whole)  # builds it (once, kept by the problem)
         progress.update("NDBG built; planning")
-        result = plan(problem, method, model=cnn, simulator=sim, cache=cache_obj,
-                      on_progress=progress.scorer_progress, **(options or {}))
+        result = plan(problem, planner, model=cnn, simulator=sim, cache=cache_obj,
+                      on_progress=progress.scorer_progress)
     finally:
         sim.close()
         if cache_obj is not None:  # also when interrupted: a rerun starts from the scores found
