@@ -123,7 +123,7 @@ def _compare(console, out: Path, workers: int | None) -> tuple[dict, dict, float
     asm = generate(*COMPARE)
     path = out / f"{asm.name}.json"
     path.write_text(json.dumps(assembly_to_json(asm)), encoding="utf-8")
-    meta = OperationPredictor.load(default_model_path(), engine="auto").meta
+    meta = OperationPredictor.load(default_model_path(), engine="cnn").meta  # meta only
     seen = model_familiarity(meta, asm.geometry_hash, np.zeros((0, 2, 64, 64), np.uint8))
     console.rule("4/4 the product: rap-farm plan's default against simulator-only greedy")
     console.print(f"{asm.name} ({len(asm)} parts, {path}): "

@@ -50,7 +50,7 @@ from rap.farm.actors import Backend, SimTask, SimWorker
 from rap.farm.faults import LOST
 from rap.farm.runtime import cluster_cpus
 
-__all__ = ["WorkerSet", "FarmError", "IDLE_TIMEOUT_S", "LOST", "WAKE_S"]
+__all__ = ["WorkerSet", "FarmError", "IDLE_TIMEOUT_S", "WAKE_S"]
 
 _REMOTE_WORKER = ray.remote(SimWorker)
 

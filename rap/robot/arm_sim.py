@@ -273,7 +273,9 @@ def _run_trial(program, assembly, p, rng, counts, frames, camera):
             c.jammed += not inserted
             w.removeConstraint(cid)
             scene.placed.append(pid)
-            _carry_arm_up(scene, np.array(step.waypoint("retreat").position))
+            scene.move_tcp(np.array(step.waypoint("retreat").position))
+            for link in range(-1, w.getNumJoints(arm)):  # clear of it: the arm may hit it again
+                w.setCollisionFilterPair(arm, body, link, -1, 1)
             for _ in range(int(p.settle_s / dt)):
                 w.stepSimulation()
             if frames is not None:
@@ -286,10 +288,6 @@ def _run_trial(program, assembly, p, rng, counts, frames, camera):
     finally:
         w.disconnect()
     return ok
-
-
-def _carry_arm_up(scene, target):
-    scene.move_tcp(target)
 
 
 def run_arm(program: Program, assembly: Assembly, trials: int = 10, seed: int = 0,

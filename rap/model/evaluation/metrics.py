@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from rap.stats import binomial_tail
+
 __all__ = ["RELIABILITY_BINS", "classification_metrics", "reliability_sums", "pool_reliability",
            "reliability_table", "expected_calibration_error", "noise_ceiling"]
 
@@ -77,13 +79,7 @@ _GRID = np.linspace(0.0, 1.0, 4001)[1:-1]
 
 def _agreement(p: np.ndarray, n: int, k: int) -> np.ndarray:
     """max(q, 1 - q) with q = P(Bin(n, p) >= k), for an array of p (exact finite sum)."""
-    if k <= 0 or k > n:
-        return np.ones_like(p)
-    lp, lq = np.log(p), np.log1p(-p)
-    terms = np.stack([math.lgamma(n + 1) - math.lgamma(j + 1) - math.lgamma(n - j + 1)
-                      + j * lp + (n - j) * lq for j in range(k, n + 1)])
-    mx = terms.max(axis=0)
-    q = np.clip(np.exp(mx) * np.exp(terms - mx).sum(axis=0), 0.0, 1.0)
+    q = binomial_tail(p, n, k)  # 1 or 0 outside 1 <= k <= n: agreement 1 either way
     return np.maximum(q, 1.0 - q)
 
 

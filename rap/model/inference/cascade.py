@@ -118,10 +118,6 @@ class CascadeScorer:
     def render_seconds(self) -> float:
         return self.cnn.render_seconds
 
-    @render_seconds.setter
-    def render_seconds(self, value: float) -> None:
-        self.cnn.render_seconds = value
-
     # scoring -----------------------------------------------------------------------------
     def descriptors(self, problem, ops: Sequence[Operation]) -> np.ndarray:
         """The twelve descriptors of each operation, float32 [N, 12] (``BatchDescriptors``)."""

@@ -222,10 +222,15 @@ class SearchPlanner(Planner):
         if run.graph is not None:
             value, scope = self._max_high(run.graph, scores, scores.problem.whole), "exact"
         else:
-            value = max(math.prod(scores.high(op) for op in seq) for seq in run.beam)
+            value = self._beam_value(run, scores)
             scope = "beam"
         return report(result.robustness, value, self.confidence, scope, scores.bounds,
                       len(result.steps), scores.level)
+
+    @staticmethod
+    def _beam_value(run: _Run, scores: SearchScores) -> float:
+        """``V`` over the final beam's sequences only (the bound's scope ``beam``)."""
+        return max(math.prod(scores.high(op) for op in seq) for seq in run.beam)
 
     @staticmethod
     def _max_high(graph, scores: SearchScores, whole) -> float:
@@ -375,7 +380,7 @@ class SearchPlanner(Planner):
 
         return self._refine(
             scores, stats, choose,
-            lambda _: max(math.prod(scores.high(op) for op in seq) for seq in run.beam),
+            lambda _: self._beam_value(run, scores),
             incumbent_of)
 
 
