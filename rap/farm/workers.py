@@ -47,7 +47,6 @@ from ray.exceptions import ActorDiedError
 from rap.errors import WorkFailedError
 
 from rap.farm.actors import Backend, SimTask, SimWorker
-from rap.farm.faults import LOST
 from rap.farm.runtime import cluster_cpus
 
 __all__ = ["WorkerSet", "FarmError", "IDLE_TIMEOUT_S", "WAKE_S"]

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rap.assembly import Assembly
+from rap.errors import InputError
 from rap.robot.cell import Cell
 
 __all__ = ["CellFrame", "cell_frame", "plan_gravity", "TOOL_DOWN_ROTVEC"]
@@ -39,9 +40,10 @@ def plan_gravity(plan_doc: dict) -> tuple[float, float] | None:
     g = (plan_doc.get("constraints") or {}).get("gravity")
     if not g:
         return None
-    if isinstance(g, str):
-        g = g.split(",")
-    gx, gy = float(g[0]), float(g[1])
+    try:
+        gx, gy = map(float, g.split(",") if isinstance(g, str) else g)
+    except (TypeError, ValueError):
+        raise InputError(f"plan: constraints.gravity {g!r}: not a vector DX,DY") from None
     return None if gx == 0 and gy == 0 else (gx, gy)
 
 

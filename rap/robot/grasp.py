@@ -28,8 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rap.assembly import Assembly, area_moments
+from rap.assembly import Assembly
 from rap.errors import InputError
+from rap.plan.report.poses import centroid
 from rap.robot.cell import Cell
 from rap.robot.frames import CellFrame
 
@@ -82,8 +83,7 @@ def grasp_point(assembly: Assembly, part: str, frame: CellFrame, cell: Cell) -> 
     rings = [pt.float_outer(), *pt.float_holes()]
     cup_units = cell.gripper.cup_diameter_m / frame.scale_m
     if frame.plane == "horizontal":
-        a2, cx, cy = area_moments(pt.rings())
-        best = (float(cx / (3 * a2)), float(cy / (3 * a2)))
+        best = centroid(assembly, [part])
         if _depth_inside(best, rings) < cup_units / 2:
             xs, ys = [x for x, _ in rings[0]], [y for _, y in rings[0]]
             cands = [(x, y) for x in np.linspace(min(xs), max(xs), _GRID)

@@ -3,8 +3,7 @@
 ``rate(successes, trials)`` is a ``Rate``: the count, the trials, the fraction and its exact
 (Clopper-Pearson) interval at ``rap.plan.report.intervals.LEVEL`` (95%), the same construction as
 a step's score interval, so the measured success of a plan and its R are compared on one footing.
-``inside(value, interval)``: whether a measured rate lies in R's interval (the issue's
-target). Pure; O(trials) bisection steps per bound.
+Pure; O(trials) bisection steps per bound.
 """
 
 from __future__ import annotations
@@ -13,7 +12,7 @@ from dataclasses import dataclass
 
 from rap.plan.report.intervals import LEVEL, clopper_pearson
 
-__all__ = ["Rate", "rate", "inside"]
+__all__ = ["Rate", "rate"]
 
 
 @dataclass(frozen=True)
@@ -39,8 +38,3 @@ def rate(successes: int, trials: int) -> Rate:
     """The rate ``successes / trials`` with its Clopper-Pearson interval (module doc)."""
     lo, hi = clopper_pearson(successes, trials, LEVEL)
     return Rate(int(successes), int(trials), float(lo), float(hi))
-
-
-def inside(value: float, interval) -> bool:
-    """Whether ``value`` lies in ``interval`` (None: unknown, False)."""
-    return interval is not None and interval[0] <= value <= interval[1]
