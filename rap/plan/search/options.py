@@ -9,7 +9,7 @@ from typing import ClassVar
 
 from rap.plan.planners.options import PlannerOptions, option
 
-__all__ = ["SearchOptions", "SEARCH_SIMULATIONS", "SEARCH_UPPER", "SEARCH_GAP", "DEFAULT_BEAM",
+__all__ = ["SearchOptions", "GREEDY_FROM", "IMPROVE", "GREEDY_SHARE", "SEARCH_SIMULATIONS", "SEARCH_UPPER", "SEARCH_GAP", "DEFAULT_BEAM",
            "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE", "BOUND_ROUND"]
 
 DEFAULT_BEAM = 8
@@ -31,6 +31,17 @@ BOUND_ROUND = 2
 SEARCH_SIMULATIONS = 200
 SEARCH_UPPER = 0.35
 SEARCH_GAP = 0.0
+# From GREEDY_FROM parts on, the search starts from simulator-only greedy's plan and spends at most
+# IMPROVE times greedy's simulations improving it (docs/PLANNING.md, "Planning at scale"): beyond a
+# dozen parts the plan's many steps keep the exact refine from settling within its 200 simulations
+# (the 22-brick wall and the 5 x 5 grid stopped by budget, at 4.6 and 3.7 times greedy's time); up
+# to a dozen it settles sooner than greedy plans (greedy first there: 1.2-1.7 times the time for
+# the same plans, benchmarks/plan_scale.py up to 12 parts).
+GREEDY_FROM = 13
+IMPROVE = 1.0
+#: with a ``time_limit``, greedy's start may take at most this share of it; past it the search
+#: plans without a first plan (the beam by the model's scores, then simulations while time is left)
+GREEDY_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -78,6 +89,15 @@ class SearchOptions(PlannerOptions):
         help="Method {method} with {simulations}: stop simulating after S seconds of planning and "
              "return the best plan by what is known then (checked between rounds of "
              "simulations; 0: no limit)")
+    greedy_from: int = option(
+        int, GREEDY_FROM, low=2, code="f", code_name="N",
+        help="Method {method}: from N parts on, start from simulator-only greedy's plan (the "
+             "result is never worse than it) and improve it with at most {improve} times "
+             "greedy's simulations (beyond the exact budget, the beam always starts from it)")
+    improve: float = option(
+        float, IMPROVE, low=0.0, code="i", code_name="X", percent=True,
+        help="Method {method}: after greedy's start, simulations to spend improving its plan, as "
+             "a multiple of greedy's own (at most {simulations})")
     beam_width: int = option(int, DEFAULT_BEAM, low=1, code="w", code_name="W",
                              help="Method {method}: beam width beyond the exact search's budget")
     bound_round: int = option(

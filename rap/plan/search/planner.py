@@ -5,23 +5,26 @@ CNN's expected score of an operation (``Scorer.expected_scores``) standing in fo
 which is spent only where it decides. Its options and their measured defaults are
 ``rap.plan.search.options.SearchOptions``; docs/PLANNING.md explains each one.
 
-1. **Exact** (at most ``max_operations`` candidate operations): the optimum's DP over the
+1. **Greedy's plan first** (from ``greedy_from`` parts, and always beyond the exact budget):
+   simulator-only greedy's plan, fully simulated, with every candidate greedy simulated known to
+   the search; the result is never worse than it (stats: ``greedy_robustness``,
+   ``greedy_seconds``, ``greedy_simulations``).
+2. **Exact** (at most ``max_operations`` candidate operations): the optimum's DP over the
    reachable subassemblies by branch and bound (``rap.plan.dp.dp_choice_bounded``: a
-   subassembly's candidates are rendered and scored only when they can still matter). An
-   interlocked subassembly is a dead end (value 0), not a failure.
-2. **Beam** (beyond it, e.g. 30 or 100 parts): top-down beam search over partial decompositions,
-   each round expanding every state's largest open subassembly and keeping the ``beam_width``
-   states of highest score product. Simulator-only greedy's plan is computed first and joins
-   the final beam, fully simulated: the search then returns a plan at least as robust as
-   greedy's (measured in its ``stats``: ``greedy_robustness``, ``greedy_seconds``).
+   subassembly's candidates are scored only when they can still matter). An interlocked
+   subassembly is a dead end (value 0), not a failure. **Beam** beyond it (e.g. 30 or 100 parts):
+   ``rap.plan.search.beam``; greedy's plan joins the final beam.
 3. **Refine** (``_refine``, both modes): the chosen sequence's operations neither simulated nor
    trusted (predicted at ``trust`` or more) are simulated, their scores replace the predictions
-   and the choice is made again, until it is settled or ``simulations`` are spent. While
+   and the choice is made again, until it is settled or the budget is spent: ``simulations``, or
+   after greedy's start ``improve`` times greedy's own simulations (at most ``simulations``). While
    choosing, an unsimulated operation counts as ``max(p + optimism (1 - p), p + upper (u - p))``,
    ``u`` its conformal upper bound (``rap.model.calibration``; ``rap.plan.search.scores``), so
    an alternative the model may underrate is chosen, simulated and kept if it holds up; with
-   ``upper`` > 0, ``bound_round`` operations a round, the most raised first. When the budget is
-   spent the plan is chosen again by what is known.
+   ``upper`` > 0, ``bound_round`` operations a round, the most raised first. When the budget (or
+   ``time_limit``) stops it, the plan is chosen again by what is known; in exact mode its
+   remaining steps are simulated and the best fully simulated sequence is returned (it may
+   combine subtrees of several simulated plans, greedy's among them; stats ``final``).
 4. **Bound**: ``V``, the best product of upper bounds (simulated scores where known) over every
    sequence, bounds the optimum's robustness at ``confidence`` (Bonferroni over the steps). The
    best fully simulated sequence is the incumbent ``I``; the search stops when ``I >= V``
@@ -46,7 +49,6 @@ No ray, no torch.
 
 from __future__ import annotations
 
-import heapq
 import math
 import threading
 import time
@@ -54,15 +56,16 @@ from dataclasses import dataclass
 
 from rap.model.calibration import ScoreBounds, load
 from rap.plan.dp import SLACK, dp_choice_bounded, max_value
+from rap.plan.search.beam import beam_states, log_product
 from rap.plan.search.options import SearchOptions
 from rap.plan.search.scores import SearchScores, incumbent, report
+from rap.plan.search.start import greedy_start
 from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
 from rap.plan.planners.base import Planner
-from rap.plan.planners.greedy import SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStep
 from rap.stats import bonferroni
-from rap.plan.scoring.scorer import BudgetSpent, Scorer
+from rap.plan.scoring.scorer import Budget, BudgetSpent, Scorer
 
 __all__ = ["SearchPlanner"]
 
@@ -96,7 +99,8 @@ class SearchPlanner(Planner):
         self.bounds = bounds
 
     def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
-        """``Planner.solve``, then the plan's bound (module doc, 6)."""
+        """``Planner.solve``, then the plan's bound (module doc, 5), outside the scorer's budget (a
+        request's), as the evaluation is."""
         _CURRENT.run = None
         result = super().solve(problem, scorer)
         run, _CURRENT.run = _CURRENT.run, None
@@ -104,7 +108,11 @@ class SearchPlanner(Planner):
             return result
         t = time.perf_counter()
         before = scorer.stats.to_dict()
-        bound = self._bound(run, result)
+        saved, scorer.budget = scorer.budget, Budget()  # like the evaluation: not the search's
+        try:
+            bound = self._bound(run, result)
+        finally:
+            scorer.budget = saved
         stats = dict(result.stats)
         for k, v in scorer.stats.to_dict().items():  # the bound's CNN batches count too
             stats[k] = stats.get(k, 0) + v - before[k]
@@ -121,18 +129,25 @@ class SearchPlanner(Planner):
             todo.sort(key=lambda op: -scores.of(op) / max(scores.known(op), 1e-300))
         return todo
 
-    def _batch(self, scores: SearchScores, todo: list, spent: int) -> list:
+    def _batch(self, scores: SearchScores, todo: list, spent: int, budget: int) -> list:
         """This round's simulations: ``bound_round`` of ``todo`` while choosing by bounds, else all
         of it; never past the budget."""
         if scores.upper:
             todo = todo[:self.bound_round]
-        return todo[:max(0, math.ceil(self.simulations - spent))]
+        return todo[:max(0, budget - spent)]
 
-    def _spent(self, scores: SearchScores, spent: int) -> bool:
-        """Whether the refine loop must stop simulating: ``simulations`` spent, or ``time_limit``
+    def _spent(self, scores: SearchScores, spent: int, budget: int) -> bool:
+        """Whether the refine loop must stop simulating: ``budget`` spent, or ``time_limit``
         seconds passed since the plan was asked for (checked between rounds; 0: no limit)."""
-        return spent >= self.simulations or bool(
+        return spent >= budget or bool(
             self.time_limit and time.perf_counter() - scores.scorer.started > self.time_limit)
+
+    def _budget(self, stats: dict) -> int:
+        """The refine loop's simulations: ``simulations``; after greedy's start, at most
+        ``improve`` times the simulations greedy's plan took (module doc, 3)."""
+        if "greedy_steps" not in stats:  # no greedy start, or greedy found no plan
+            return self.simulations
+        return min(self.simulations, math.ceil(self.improve * stats["greedy_simulations"]))
 
     def _free_bound(self, scores: SearchScores) -> bool:
         """Whether the choosing scores are the upper bounds themselves (the DP's value is V)."""
@@ -158,11 +173,12 @@ class SearchPlanner(Planner):
         stats.update(search_bound=value, stopped_after=spent, predicted_robustness=best)
         return True
 
-    def _second_phase(self, scores: SearchScores, choice: dict, spent: int, stats: dict):
+    def _second_phase(self, scores: SearchScores, choice: dict, spent: int, budget: int,
+                      stats: dict):
         """When the choice is settled short of ``gap`` with budget left: phase 2 (module doc, 5)
         starts, choosing by the bounds themselves; returns what it must never fall below (the
         settled choice and its robustness by known scores), or None when it does not start."""
-        if not (self.gap is not None and not self._spent(scores, spent)):
+        if not (self.gap is not None and not self._spent(scores, spent, budget)):
             return None
         scores.by_bounds()
         stats.update(phase1_simulations=spent, gap=self.gap)
@@ -195,13 +211,15 @@ class SearchPlanner(Planner):
         except TooLarge:
             graph = None
         run = _Run(scores, graph)
+        # greedy's plan first (module doc, 1-2): from ``greedy_from`` parts, and always for the beam
+        first = (greedy_start(problem, scorer, scores, stats, self.time_limit)
+                 if graph is None or len(whole) >= self.greedy_from else ())
         if graph is not None:
             stats["search"] = "exact"
             trees = self._exact(graph, scores, whole, stats)
         else:
             stats["search"] = "beam"
-            trees = self._beam(problem, scores, whole, stats, run,
-                               self._greedy_sequence(problem, scorer, scores, stats))
+            trees = self._beam(problem, scores, stats, run, first)
         _CURRENT.run = run
         steps = {}
         for sub, op in trees.items():
@@ -210,7 +228,7 @@ class SearchPlanner(Planner):
                                      score=scores.simulated.get(k),
                                      confidence=scores.predicted.get(k))
         # the refine loop's simulations (greedy's own are ``greedy_simulations``)
-        stats["search_simulations"] = len(scores.simulated) - stats.get("greedy_steps", 0)
+        stats["search_simulations"] = len(scores.simulated) - stats.get("greedy_known", 0)
         stats["predicted_operations"] = len(scores.predicted)
         return assembly_order(steps, whole)
 
@@ -250,7 +268,8 @@ class SearchPlanner(Planner):
         ``choose()``: ``(choice, value)``, the choice by the current scores and its DP value (or
         None); ``bound(value)``: ``V``; ``incumbent_of()``: ``(robustness, plan or None)`` of the
         best fully simulated sequence."""
-        spent = 0
+        spent, budget = 0, self._budget(stats)
+        stats.update(search_budget=budget, refine_simulations=0)
         floor = None  # phase 2 (module doc, 5): phase 1's settled choice and its robustness
         while True:
             choice, best = choose()
@@ -261,8 +280,8 @@ class SearchPlanner(Planner):
                     return got_plan if floor is None else self._kept(scores, got_plan, floor,
                                                                      spent, stats)
             todo = self._to_simulate(scores, choice.values())
-            out = self._spent(scores, spent)
-            why = "budget" if spent >= self.simulations else "time"
+            out = self._spent(scores, spent, budget)
+            why = "budget" if spent >= budget else "time"
             if floor is not None and (not todo or out):
                 stats.update(stopped=why, search_bound=value, stopped_after=spent)
                 return self._kept(scores, got_plan, floor, spent, stats)
@@ -270,20 +289,21 @@ class SearchPlanner(Planner):
                 # budget spent with raised scores still in the choice: choose by what is known
                 scores.lower()
                 continue
-            if not todo and (floor := self._second_phase(scores, choice, spent, stats)):
+            if not todo and (floor := self._second_phase(scores, choice, spent, budget, stats)):
                 continue
             if not todo or out:
                 stats["predicted_robustness"] = math.prod(scores.known(op)
                                                           for op in choice.values())
                 stats["stopped"] = why if todo else "settled"
                 return choice
-            todo = self._batch(scores, todo, spent)
+            todo = self._batch(scores, todo, spent, budget)
             try:
                 scores.simulate(todo)
             except BudgetSpent:  # the scorer's own budget (a service request's): stop here
-                spent = self.simulations
+                spent = budget
                 continue
             spent += len(todo)
+            stats["refine_simulations"] = spent
 
     # -- exact ------------------------------------------------------------------------------------
     def _exact(self, graph, scores: SearchScores, whole, stats) -> dict:
@@ -300,74 +320,47 @@ class SearchPlanner(Planner):
                 raise Interlocked(dead_end(graph, whole))
             return {sub: op for sub, (_, op) in tree.items()}, best
 
-        return self._refine(
+        plan = self._refine(
             scores, stats, choose,
             lambda best: best if self._free_bound(scores) else self._max_high(graph, scores, whole),
             lambda: incumbent(graph, scores, whole))
+        if stats.get("stopped") not in ("budget", "time") or not stats["search_budget"]:
+            return plan  # settled; or the model alone (no simulation while planning)
+        return self._best_simulated(graph, scores, whole, plan, stats)
+
+    @staticmethod
+    def _best_simulated(graph, scores: SearchScores, whole, plan: dict, stats: dict) -> dict:
+        """When the budget stopped the search (module doc, 3): the chosen plan's steps not yet
+        simulated are simulated (its evaluation would simulate them anyway), and the best fully
+        simulated sequence is returned: the plan, or a better one combining the subtrees
+        simulated so far (greedy's plan among them). A plan with trusted or unsimulated steps
+        (the scorer's own budget spent) is kept unless a simulated sequence beats it."""
+        before = len(scores.simulated)
+        try:
+            scores.simulate(plan.values())
+        except BudgetSpent:
+            pass
+        stats["final_simulations"] = len(scores.simulated) - before
+        got, got_plan = incumbent(graph, scores, whole)
+        mine = math.prod(scores.known(op) for op in plan.values())
+        if got_plan is None or got <= mine:
+            return plan
+        stats.update(final="incumbent", predicted_robustness=got)
+        return got_plan
 
     # -- beam -------------------------------------------------------------------------------------
-    @staticmethod
-    def _greedy_sequence(problem, scorer, scores: SearchScores, stats) -> tuple:
-        """Simulator-only greedy's sequence as a beam state's choices ((subassembly, operation)
-        pairs), its scores known to the search: the beam's first complete plan, so that the
-        search never returns a worse one (module doc, 2). Cost: greedy's simulations."""
-        t = time.perf_counter()
-        before = scorer.stats.sim_run
-        try:
-            steps = SimPlanner()._search(problem, scorer, {})
-        except (BudgetSpent, Interlocked):  # the caller's budget, or a dead end: the beam decides
-            stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_robustness=None)
-            return ()
-        ops = [s.to_operation() for s in steps]
-        scores.add_simulated(ops, [s.score for s in steps])
-        stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_steps=len(ops),
-                     greedy_seconds=time.perf_counter() - t,
-                     greedy_robustness=math.prod(s.score for s in steps))
-        return tuple((op.moving | op.fixed, op) for op in ops)
-
-    def _beam(self, problem: PlanningProblem, scores: SearchScores, whole, stats,
-              run: _Run, first: tuple = ()) -> dict:
-        # a state: (log product, tie-break counter, open subassemblies largest first, choices)
-        beam = [(0.0, 0, (whole,), ())]
-        counter = 1
-        rounds = 0
-        while any(st[2] for st in beam):
-            rounds += 1
-            expand = [st for st in beam if st[2]]
-            done = [st for st in beam if not st[2]]
-            cands = {}
-            for _, _, open_, _ in expand:
-                s = open_[0]
-                if s not in cands:
-                    cands[s] = problem.candidates(s)
-            scores.predict([op for c in cands.values() for op in c])
-            nxt = list(done)
-            for logp, _, open_, chosen in expand:
-                s, rest = open_[0], open_[1:]
-                for op in cands[s]:
-                    r = scores.of(op)
-                    if r <= 0.0:
-                        continue
-                    kids = tuple(x for x in (op.moving, op.fixed) if len(x) >= 2)
-                    new_open = tuple(sorted(rest + kids, key=lambda x: (-len(x), sorted(x))))
-                    nxt.append((logp + math.log(r), counter, new_open, chosen + ((s, op),)))
-                    counter += 1
-            if not nxt:  # every state reached a dead end: blame the smallest one seen
-                locked = [s for s, c in cands.items() if not c]
-                raise Interlocked(min(locked, key=lambda x: (len(x), sorted(x))) if locked
-                                  else whole)
-            beam = heapq.nlargest(self.beam_width, nxt, key=lambda st: (st[0], -st[1]))
+    def _beam(self, problem: PlanningProblem, scores: SearchScores, stats, run: _Run,
+              first: tuple = ()) -> dict:
+        beam, rounds = beam_states(problem, scores, self.beam_width)
         stats.update(beam_rounds=rounds, beam_width=self.beam_width)
         if first and all(st[3] != first for st in beam):  # greedy's plan competes (module doc, 2)
-            beam.append((sum(math.log(max(scores.of(op), 1e-300)) for _, op in first), counter,
-                         (), first))
+            beam.append((log_product(scores, first), max(st[1] for st in beam) + 1, (), first))
         run.beam = [[op for _, op in st[3]] for st in beam]
         # simulations where they matter: re-rank the final sequences by mixed products
         ranked: list = []
 
         def choose():
-            ranked[:] = sorted(beam, key=lambda st: (-sum(math.log(max(scores.of(op), 1e-300))
-                                                          for _, op in st[3]), st[1]))
+            ranked[:] = sorted(beam, key=lambda st: (-log_product(scores, st[3]), st[1]))
             return dict(ranked[0][3]), None
 
         def incumbent_of():

@@ -167,7 +167,7 @@ def test_a_spent_budget_under_optimism_chooses_by_what_is_known():
     best = OptimalPlanner().solve(problem, scorer(None))
     perfect = TableCnn(lambda op: 0.5, score_fn=hash_score)
     r = SearchPlanner(simulations=3, optimism=1.0, upper=0.0).solve(problem, scorer(perfect))
-    assert r.stats["search_simulations"] == 3
+    assert r.stats["refine_simulations"] == 3
     assert r.robustness == pytest.approx(best.robustness)
     assert r.stats["predicted_robustness"] == pytest.approx(best.robustness)
 
@@ -195,7 +195,7 @@ def test_the_beam_never_returns_a_plan_worse_than_simulator_only_greedy():
         alone = SearchPlanner(max_operations=1, beam_width=2, simulations=0, upper=0.0)
         s = scorer(liar)
         sc = SearchScores(problem, s)
-        trees = alone._beam(problem, sc, problem.whole, {}, _Run(sc))  # no greedy plan in it
+        trees = alone._beam(problem, sc, {}, _Run(sc))  # no greedy plan in it
         worse_alone.append(float(np.prod(s.scores(problem, list(trees.values()))))
                            < greedy.robustness)
     assert any(worse_alone), worse_alone
@@ -211,5 +211,5 @@ def test_a_time_limit_stops_the_simulations_and_returns_the_best_known_plan():
                                                                               scorer(model))
     assert limited.status is PlanStatus.FOUND and check_plan(problem.assembly, limited.steps) == []
     assert limited.stats["stopped"] == "time"
-    assert limited.stats["search_simulations"] < free.stats["search_simulations"]
+    assert limited.stats["refine_simulations"] < free.stats["refine_simulations"]
     assert SearchPlanner().time_limit == 0.0  # the shipped search: no limit

@@ -253,7 +253,7 @@ def test_bounds_simulate_a_few_operations_a_round_most_raised_first():
         found = SearchPlanner(bounds=covering(), upper=1.0, simulations=6,
                               bound_round=per_round).solve(problem, s)
         checked(problem, found)
-        assert found.stats["search_simulations"] == 6 and found.stats["stopped"] == "budget"
+        assert found.stats["refine_simulations"] == 6 and found.stats["stopped"] == "budget"
         assert s.simulator.calls >= 6 // per_round  # rounds of at most per_round (+ evaluation)
 
 

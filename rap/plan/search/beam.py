@@ -1,0 +1,65 @@
+"""Beam search over partial decompositions: the search's mode beyond the exact budget.
+
+``beam_states(problem, scores, width)`` decomposes top-down: a state is a partial plan (the
+choices made so far and the subassemblies still open, largest first); each round expands every
+state's largest open subassembly by each of its candidates and keeps the ``width`` states of
+highest product of ``scores.of`` (what the search chooses by: simulated where known, else the
+model's raised score). It returns the final, complete states; the search then re-ranks them with
+simulations (``rap.plan.search.planner``).
+
+A state: ``(log product, tie-break counter, open subassemblies, ((subassembly, operation), ...))``.
+Ties go to the state made first. An interlock that ends every state raises ``Interlocked`` naming
+the smallest dead end seen (a minimal one is named later by ``rap.plan.interlocked``).
+
+Cost: one scorer batch per round (the candidates of the states' largest open subassemblies), at
+most ``n - 1`` rounds for ``n`` parts, ``width`` x candidates states a round. No ray, no torch.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+
+from rap.plan.graph import Interlocked
+from rap.plan.problem import PlanningProblem
+
+__all__ = ["beam_states", "log_product"]
+
+
+def log_product(scores, choices) -> float:
+    """The log of the product of ``scores.of`` over a state's ``(subassembly, operation)``
+    choices (a zero score counts as 1e-300)."""
+    return sum(math.log(max(scores.of(op), 1e-300)) for _, op in choices)
+
+
+def beam_states(problem: PlanningProblem, scores, width: int) -> tuple[list, int]:
+    """The final beam (complete states, module doc) and the number of rounds."""
+    whole = problem.whole
+    beam = [(0.0, 0, (whole,), ())]
+    counter = 1
+    rounds = 0
+    while any(st[2] for st in beam):
+        rounds += 1
+        expand = [st for st in beam if st[2]]
+        nxt = [st for st in beam if not st[2]]
+        cands = {}
+        for _, _, open_, _ in expand:
+            if open_[0] not in cands:
+                cands[open_[0]] = problem.candidates(open_[0])
+        scores.predict([op for c in cands.values() for op in c])
+        for logp, _, open_, chosen in expand:
+            s, rest = open_[0], open_[1:]
+            for op in cands[s]:
+                r = scores.of(op)
+                if r <= 0.0:
+                    continue
+                kids = tuple(x for x in (op.moving, op.fixed) if len(x) >= 2)
+                new_open = tuple(sorted(rest + kids, key=lambda x: (-len(x), sorted(x))))
+                nxt.append((logp + math.log(r), counter, new_open, chosen + ((s, op),)))
+                counter += 1
+        if not nxt:  # every state reached a dead end: blame the smallest one seen
+            locked = [s for s, c in cands.items() if not c]
+            raise Interlocked(min(locked, key=lambda x: (len(x), sorted(x))) if locked
+                              else whole)
+        beam = heapq.nlargest(width, nxt, key=lambda st: (st[0], -st[1]))
+    return beam, rounds

@@ -1,0 +1,56 @@
+"""The search's first complete plan: simulator-only greedy's, with everything greedy simulated.
+
+``greedy_start(problem, scorer, scores, stats, time_limit)`` runs ``SimPlanner`` (every candidate
+of each subassembly on its way simulated, the best taken) and makes every score it simulated known
+to the search (``SearchScores.add_simulated``: those candidates are exact from then on). The
+search then only improves on that plan: it never returns a worse one (``rap.plan.search.planner``,
+module doc, 1). With a ``time_limit``, greedy may take at most ``GREEDY_SHARE`` of it; past that,
+at the caller's own budget, or at a dead end, there is no first plan (``()``) and the search goes
+on without one.
+
+Stats: ``greedy_simulations``, ``greedy_steps``, ``greedy_seconds``, ``greedy_robustness`` (None
+without a plan), ``greedy_known`` (scores known after it). Cost: greedy's simulations (its
+candidates' scores are read back from the score cache). No ray, no torch.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+from rap.plan.graph import Interlocked
+from rap.plan.planners.greedy import SimPlanner
+from rap.plan.problem import PlanningProblem
+from rap.plan.scoring.scorer import BudgetSpent, Scorer
+from rap.plan.search.options import GREEDY_SHARE
+
+__all__ = ["greedy_start"]
+
+
+def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
+                 time_limit: float = 0.0) -> tuple:
+    """Greedy's sequence as ``(subassembly, operation)`` pairs (module doc), or ``()``."""
+    t = time.perf_counter()
+    before = scorer.stats.sim_run
+    saved = scorer.budget
+    if time_limit:
+        cap = GREEDY_SHARE * time_limit
+        scorer.budget = dataclasses.replace(saved, max_seconds=min(
+            cap, saved.max_seconds if saved.max_seconds is not None else cap))
+    try:
+        steps = SimPlanner()._search(problem, scorer, {})
+        ops = [s.to_operation() for s in steps]
+        known = [c for op in ops for c in problem.candidates(op.moving | op.fixed)]
+        known_scores = scorer.scores(problem, known)  # score cache hits
+    except (BudgetSpent, Interlocked):  # a budget, or a dead end: the search decides
+        stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_robustness=None)
+        return ()
+    finally:
+        scorer.budget = saved
+    stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_steps=len(ops),
+                 greedy_seconds=time.perf_counter() - t,
+                 greedy_robustness=math.prod(s.score for s in steps))
+    scores.add_simulated(known, known_scores)
+    stats["greedy_known"] = len(scores.simulated)
+    return tuple((op.moving | op.fixed, op) for op in ops)
