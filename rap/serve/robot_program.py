@@ -39,7 +39,7 @@ from rap.errors import InputError
 from rap.plan.report.result import PlanResult, is_assembly_order
 from rap.robot.cell import Cell, parse_cell
 from rap.robot.inputs import check_assembly, plan_of
-from rap.serve.api import BadRequest, request_assembly, request_object
+from rap.serve.api import BadRequest, ServeConfig, request_assembly, request_object
 
 __all__ = ["EXPORT_KEYS", "EXPORT_FORMATS", "DEFAULT_FORMAT", "PROGRAM_DETAILS_HEADER",
            "ExportRequest", "ProgramFile", "parse_export_request", "program_file",
@@ -113,7 +113,7 @@ def _cell(raw) -> Cell:
 
 
 def parse_export_request(body: bytes, *, max_parts: int = LIMITS.max_parts,
-                         max_vertices: int = 20_000) -> ExportRequest:
+                         max_vertices: int = ServeConfig.max_vertices) -> ExportRequest:
     """The ``ExportRequest`` of a ``POST /export`` body, or ``BadRequest`` (module doc)."""
     doc = request_object(body, EXPORT_KEYS,
                          '{"assembly": {...}, "plan": {...}, "format": "urscript"}')
