@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from decimal import Decimal
 from fractions import Fraction
 from functools import cached_property
+from pathlib import Path
 from typing import Iterable
 
 from rap.errors import InputError
@@ -57,6 +58,7 @@ __all__ = [
     "decimal_places",
     "InputLimits",
     "LIMITS",
+    "SHIPPED_ASSEMBLIES",
     "json_error_reason",
 ]
 
@@ -91,6 +93,9 @@ class InputLimits:
 
 
 LIMITS = InputLimits()
+
+#: the reference assemblies shipped as package data (``rap/data/assemblies/*.json``)
+SHIPPED_ASSEMBLIES = Path(__file__).resolve().parent / "data" / "assemblies"
 
 
 def signed_area2(ring: Iterable[Point]) -> Fraction:

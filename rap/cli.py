@@ -11,9 +11,10 @@ line, exit 4, never exit 1 (which means "no feasible sequence"). No traceback is
 ``RAP_DEBUG=1``.
 
 SIGTERM (``docker stop``, systemd, Kubernetes, SLURM, ``ray job stop``) stops a command as Ctrl-C
-does: ``main`` installs, once, a handler that raises ``KeyboardInterrupt`` (and ignores a second
-SIGTERM, so the cleanup after the first is not interrupted), so every command keeps what it
-committed, prints one line and exits 130 (``serve`` installs its own: it drains and exits 0).
+does: ``main`` runs inside ``rap.errors.sigterm_as_interrupt`` (a handler that raises
+``KeyboardInterrupt`` and ignores a second SIGTERM, so the cleanup after the first is not
+interrupted), so every command keeps what it committed, prints one line and exits 130 (``serve``
+installs its own: it drains and exits 0).
 ``rap.farm.runtime.init_ray`` puts the handler back after ``ray.init``, which replaces it.
 
 Usage errors (a missing argument, an unknown option, a bad value) print the CLI stack's short usage
@@ -29,16 +30,15 @@ from __future__ import annotations
 
 import importlib
 import os
-import signal
 import sys
-import threading
 
 import typer
 
 from rap import __version__
-from rap.errors import EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, RapError
+from rap.errors import (EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, RapError,
+                        sigterm_as_interrupt)
 
-__all__ = ["app", "main", "register_commands", "stop_on_sigterm"]
+__all__ = ["app", "main", "register_commands"]
 
 COMMAND_MODULES = ("inspect", "show", "generate", "simulate", "label", "check", "train",
                    "evaluate", "score", "plan", "serve", "experiment", "demo", "import_drawing",
@@ -115,27 +115,10 @@ def _internal_error(exc: BaseException, what: str = "") -> None:
     sys.exit(EXIT_INTERNAL)
 
 
-def _sigterm(signum, frame) -> None:
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # once: the cleanup runs to its end
-    raise KeyboardInterrupt
-
-
-def stop_on_sigterm() -> None:
-    """SIGTERM as Ctrl-C (module doc); in the main thread only (a signal handler lives there)."""
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _sigterm)
-
-
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point: runs the app and maps errors to one line + exit status."""
-    main_thread = threading.current_thread() is threading.main_thread()
-    before = signal.getsignal(signal.SIGTERM) if main_thread else None
-    stop_on_sigterm()
-    try:
+    with sigterm_as_interrupt():
         _main(argv)
-    finally:  # a caller in this process (a test) gets its own handler back
-        if main_thread and before is not None:
-            signal.signal(signal.SIGTERM, before)
 
 
 def _main(argv: list[str] | None) -> None:

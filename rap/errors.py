@@ -11,10 +11,25 @@
  4     internal error (a bug in rap-farm): one line; ``RAP_DEBUG=1`` shows the traceback
 130    interrupted (Ctrl-C, SIGTERM): committed work is kept
 =====  =====================================================================================
+
+SIGTERM as Ctrl-C, in one place: ``docker stop``, systemd, Kubernetes, SLURM and ``ray job stop``
+send SIGTERM, and what runs under them stops as it does on Ctrl-C (commit, then stop). Inside
+``sigterm_as_interrupt()`` a SIGTERM raises ``KeyboardInterrupt`` in the main thread and ignores
+any later SIGTERM, so the cleanup after the first is not interrupted; the handler before the block
+is put back after it. A signal handler lives in the main thread only: elsewhere the block changes
+nothing. The CLI's ``main`` and the farm driver use it.
 """
 
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from typing import Iterator
+
 __all__ = ["RapError", "InputError", "ParameterError", "WorkFailedError", "StorageError", "one_line", "EXIT_OK",
-           "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_FAILED", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
+           "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_FAILED", "EXIT_INTERNAL", "EXIT_INTERRUPTED",
+           "sigterm_as_interrupt"]
 
 EXIT_OK = 0
 EXIT_INFEASIBLE = 1  # no sequence / interlocked (plan)
@@ -70,3 +85,25 @@ def one_line(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     line = text[0] if text else type(exc).__name__
     return line if len(line) <= 200 else line[:199] + "…"
+
+
+def _interrupt(signum, frame) -> None:
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # once: the cleanup runs to its end
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt(*, keep: bool = False) -> Iterator[None]:
+    """SIGTERM raises ``KeyboardInterrupt`` for the duration of the block (module doc).
+
+    ``keep=True``: a Python handler the caller already installed (the CLI's) is kept as it is."""
+    if (threading.current_thread() is not threading.main_thread()
+            or (keep and callable(signal.getsignal(signal.SIGTERM)))):
+        yield
+        return
+    before = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:  # a caller in this process (a test) gets its own handler back
+        if before is not None:
+            signal.signal(signal.SIGTERM, before)

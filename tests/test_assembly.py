@@ -7,12 +7,14 @@ import json
 import math
 from decimal import Decimal
 from fractions import Fraction
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rap.assembly import AssemblyError, assembly_to_json, signed_area2
+import rap
+from rap.assembly import SHIPPED_ASSEMBLIES, AssemblyError, assembly_to_json, signed_area2
 from rap.io import load_assembly, parse_assembly
 
 
@@ -89,3 +91,8 @@ def test_distinct_coordinates_within_the_bounds_stay_distinct_and_finite_as_floa
     f1, f2 = float(x1), float(x2)
     assert math.isfinite(f1) and math.isfinite(f2) and math.isfinite(f1 - f2)
     assert (f1 < f2) == (x1 < x2) and (f1 == f2) == (x1 == x2)
+
+
+def test_the_shipped_assemblies_are_the_package_data():
+    assert SHIPPED_ASSEMBLIES == Path(rap.__file__).resolve().parent / "data" / "assemblies"
+    assert (SHIPPED_ASSEMBLIES / "hexagon.json").is_file()

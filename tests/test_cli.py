@@ -205,7 +205,9 @@ CORPUS = str(ROOT / "datasets" / "corpus")
 @pytest.mark.parametrize("flags,line", [
     (["--base", "nope"], "rap-farm: error: --base nope: no such part in hexagon (parts: hub, r0"),
     (["--model", "nosuch.pt"], "rap-farm: error: --model nosuch.pt: no such checkpoint"),
-], ids=["base", "model"])
+    (["--model", str(ROOT / "rap" / "data" / "default_model.pt")],
+     f"rap-farm: error: --model {ROOT / 'rap' / 'data' / 'default_model.pt'}: trained on hexagon"),
+], ids=["base", "model", "model-trained-on"])
 def test_experiment_checks_its_input_in_the_command_body(run_cli, flags, line, tmp_path,
                                                          monkeypatch):
     """Past the parser: the command body reads the dataset and the assemblies, then refuses the

@@ -35,9 +35,9 @@ def bundled_assemblies() -> Path:
     here = Path("assemblies")
     if here.is_dir() and any(here.glob("*.json")):
         return here
-    import rap
+    from rap.assembly import SHIPPED_ASSEMBLIES
 
-    return Path(rap.__file__).resolve().parent / "data" / "assemblies"
+    return SHIPPED_ASSEMBLIES
 
 
 def _markdown(doc: dict, title: str) -> str:

@@ -85,11 +85,12 @@ def experiment_command(
     asms = [load_assembly(f) for f in files]
     check_cell(cell, asms)
     out = out or Path("reports") / Path(dataset).resolve().name
+    loaded = None  # the checkpoint, read once: checked here, before Ray starts, and planned with
     if model is not None:
         if not Path(model).is_file():
             raise InputError(f"--model {model}: no such checkpoint")
         try:
-            check_held_out(model, asms)
+            loaded = check_held_out(model, asms)
         except ParameterError as exc:
             raise InputError(f"{exc.for_name('--model')} (use --models for hold-out "
                              f"models)") from None
@@ -111,7 +112,8 @@ def experiment_command(
             pool.ready(start_timeout)
             rows = run_experiment(dataset, asms, sim_backend=service.PoolSimulator(pool),
                                   models_dir=models, epochs=epochs, trials=trials,
-                                  methods=wanted, log=log, model=model, constraints=cell)
+                                  methods=wanted, log=log, model=model, constraints=cell,
+                                  loaded_model=loaded)
         finally:
             pool.shutdown()
     notes = {"dataset": str(dataset), "simulation workers": workers or rt.cpus,

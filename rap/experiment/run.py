@@ -106,11 +106,17 @@ def dataset_params(dataset: str | Path):
 
 
 def check_held_out(model: str | Path, assemblies: Sequence,
-                   load_model: Callable = OperationPredictor.load) -> None:
-    """``ParameterError`` (parameter ``model``) when the checkpoint ``model`` was trained on one
-    of ``assemblies`` (same geometry hash, from the checkpoint's metadata, read with
-    ``load_model(model, engine="auto")``): the experiment measures held-out assemblies only."""
-    meta = load_model(model, engine="auto").meta
+                   load_model: Callable = OperationPredictor.load):
+    """The checkpoint ``model`` loaded (``load_model(model)``), to score with, or
+    ``ParameterError`` (parameter ``model``) when it was trained on one of ``assemblies`` (same
+    geometry hash, from the checkpoint's metadata): the experiment measures held-out assemblies
+    only."""
+    cnn = load_model(model)
+    _refuse_seen(model, cnn.meta, assemblies)
+    return cnn
+
+
+def _refuse_seen(model: str | Path, meta: dict, assemblies: Sequence) -> None:
     trained = set()
     for a in meta.get("assemblies") or []:
         h = a.get("geometry_hash")
@@ -128,12 +134,14 @@ def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: Si
                    load_model: Callable = OperationPredictor.load,
                    holdout: Callable[..., Path] = holdout_model,
                    planner: Callable[[str, int], Planner] = method_planner,
-                   constraints: CellConstraints | None = None) -> list[ExperimentRow]:
+                   constraints: CellConstraints | None = None,
+                   loaded_model=None) -> list[ExperimentRow]:
     """Plan every assembly (``rap.assembly.Assembly`` objects named as in the dataset) with every
     method; see the module doc. ``trials`` overrides the dataset's trials per operation. With
     ``model``, that checkpoint scores every assembly (none of which it may have been trained on:
     ``check_held_out``) instead of one hold-out model per assembly, ``holdout(dataset, name,
     models_dir, epochs, log, family=...)``. ``load_model(path)`` reads a checkpoint;
+    ``loaded_model``: ``model`` already read (``check_held_out``'s), not read again;
     ``planner(method, samples)`` makes a method's planner, once per plan; ``constraints``: the
     robot cell's (None: none; ``ParameterError`` for parameter ``base`` when an assembly lacks
     the base part)."""
@@ -148,8 +156,8 @@ def run_experiment(dataset: str | Path, assemblies: Sequence, *, sim_backend: Si
     any_cnn = any(needs_model(m) for m in methods)
     shared = None
     if model is not None and any_cnn:
-        check_held_out(model, assemblies, load_model)
-        shared = load_model(model)  # loaded once for every assembly
+        shared = loaded_model if loaded_model is not None else load_model(model)  # once
+        _refuse_seen(model, shared.meta, assemblies)
     rows: list[ExperimentRow] = []
     for asm in assemblies:
         cnn, model_path = None, None

@@ -38,7 +38,6 @@ same command completes the dataset to exactly the rows of an uninterrupted run.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import signal
 import threading
@@ -52,7 +51,7 @@ import pyarrow.compute as pc
 
 from rap.dataset import (SCHEMA_VERSION, DatasetMeta, clean_partial_files, write_geometry, write_meta,
                          write_shard)
-from rap.errors import InputError
+from rap.errors import InputError, sigterm_as_interrupt
 
 from rap.farm.pool import IDLE_TIMEOUT_S, Job, SimPool
 from rap.labelling.rows import dataset_table
@@ -72,25 +71,6 @@ PRESETS: dict[str, tuple[int, int | None]] = {
 }
 
 # -- running ------------------------------------------------------------------------------------
-@contextlib.contextmanager
-def _sigterm_as_interrupt() -> Iterator[None]:
-    """``ray job stop`` and schedulers send SIGTERM: treat it like Ctrl-C (commit, then stop).
-    A handler the caller installed (the CLI's, ``rap.cli.stop_on_sigterm``) is kept."""
-    if (threading.current_thread() is not threading.main_thread()
-            or callable(signal.getsignal(signal.SIGTERM))):
-        yield
-        return
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-
-    old = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
-
-
 class _Uninterruptible:
     """Defers Ctrl-C / SIGTERM until a commit (shard write + bookkeeping) is complete, so an
     interruption can never commit rows and then lose track of them (which would write them twice)."""
@@ -194,7 +174,9 @@ def _run_label(cfg: LabelConfig, plan: LabelPlan,
             pending.add(j.key)
             yield j
 
-    with _sigterm_as_interrupt(), connect(cfg.address, num_cpus=cfg.num_cpus) as rt:
+    # ``ray job stop`` and schedulers send SIGTERM: as Ctrl-C (commit, then stop); the CLI's
+    # handler, when there is one, is kept
+    with sigterm_as_interrupt(keep=True), connect(cfg.address, num_cpus=cfg.num_cpus) as rt:
         commit_meta()  # only once Ray is up: a failed connection leaves nothing behind
         # elastic: up to --workers actors (default: every CPU, growing as CPUs join), labelling as
         # soon as one runs; idle ones are released so an autoscaler can remove their nodes

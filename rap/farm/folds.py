@@ -4,18 +4,18 @@ Each fold (``rap.model.evaluation.cross_validation.run_fold`` over a plain-dict 
 training with one torch thread, so a machine with k cores runs k folds at once. At most as many
 tasks are in flight as the cluster has CPUs (``ray.wait``). Workers read the dataset and write the
 fold checkpoints by path: on a multi-node cluster the dataset and models directories must be on
-shared storage. When no Ray runtime is running, a local one is started with ``num_cpus`` CPUs (all
-cores by default) and shut down afterwards.
+shared storage. Ray is reached as everywhere in the farm (``rap.farm.runtime.connect``): a running
+Ray runtime is used as it is, else the cluster at ``RAY_ADDRESS`` is joined, else a local one is
+started with ``num_cpus`` CPUs (all cores by default); one joined or started is shut down afterwards.
 """
 
 from __future__ import annotations
 
-import os
 from typing import Iterator
 
 import ray
 
-from rap.farm.runtime import init_ray
+from rap.farm.runtime import connect
 
 __all__ = ["ray_folds"]
 
@@ -31,16 +31,7 @@ def _fold(spec: dict) -> dict:
 
 def ray_folds(specs: list[dict], num_cpus: int | None = None) -> Iterator[dict]:
     """Run the folds as Ray tasks; yields each fold's result as it finishes."""
-    started = False
-    if not ray.is_initialized():
-        address = os.environ.get("RAY_ADDRESS")
-        if address:
-            init_ray(address=address, log_to_driver=False)
-        else:
-            init_ray(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False,
-                     log_to_driver=False)
-        started = True
-    try:
+    with connect(num_cpus=num_cpus):  # joins RAY_ADDRESS or a running Ray, else starts one
         task = ray.remote(num_cpus=1, max_retries=0)(_fold)
         slots = max(1, int(ray.cluster_resources().get("CPU", 1)))
         pending = list(specs)
@@ -52,6 +43,3 @@ def ray_folds(specs: list[dict], num_cpus: int | None = None) -> Iterator[dict]:
                 running.append(task.remote(spec))
             done, running = ray.wait(running, num_returns=1)
             yield ray.get(done[0])
-    finally:
-        if started:
-            ray.shutdown()

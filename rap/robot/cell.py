@@ -2,9 +2,10 @@
 
 ``Cell()`` is the shipped cell; ``rap/robot/default_cell.toml`` writes the same values out with a
 comment per key (``tests/robot/test_cell.py`` checks that they agree) and is the template a user
-copies. ``load_cell(path)`` reads a cell file with ``tomllib``: every key is optional (a missing
-one keeps the default), an unknown section or key, a value of the wrong type or out of range is a
-``CellError`` (an ``InputError``: exit status 2) of one line naming the file and the key, e.g.
+copies. ``load_cell(path)`` reads a cell file with ``tomllib`` (``cell_from_toml(text)`` its
+text, as the service's ``POST /export`` gets it): every key is optional (a missing one keeps the
+default), an unknown section or key, a value of the wrong type or out of range is a ``CellError``
+(an ``InputError``: exit status 2) of one line naming the file and the key, e.g.
 ``cell.toml: motion.insertion_speed_m_s: expected a number > 0, got -1``.
 
 Units: metres, degrees, seconds; the robot's base frame (x forward, y left, z up). Pure Python,
@@ -21,8 +22,8 @@ from pathlib import Path
 from rap.errors import InputError
 
 __all__ = ["Cell", "CellError", "ArmSection", "AssemblySection", "TableSection",
-           "GripperSection", "TraySection", "MotionSection", "load_cell", "parse_cell",
-           "DEFAULT_CELL_FILE", "ARMS", "PLANES", "UNIT_METRES", "with_"]
+           "GripperSection", "TraySection", "MotionSection", "load_cell", "cell_from_toml",
+           "parse_cell", "DEFAULT_CELL_FILE", "ARMS", "PLANES", "UNIT_METRES", "with_"]
 
 DEFAULT_CELL_FILE = Path(__file__).with_name("default_cell.toml")
 ARMS = ("panda",)
@@ -205,11 +206,17 @@ def load_cell(path: str | Path | None = None) -> Cell:
     except (OSError, UnicodeDecodeError) as exc:
         raise CellError(f"{path}: cannot read the cell file ({getattr(exc, 'strerror', None) or exc})"
                         ) from None
+    return cell_from_toml(text, str(path))
+
+
+def cell_from_toml(text: str, source: str = "cell") -> Cell:
+    """The cell described by a cell file's TOML ``text``; ``source`` names it in errors. Raises
+    ``CellError`` for bad TOML or a bad key (module doc)."""
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise CellError(f"{path}: not a TOML file ({exc})") from None
-    return parse_cell(doc, str(path))
+        raise CellError(f"{source}: not a TOML file ({exc})") from None
+    return parse_cell(doc, source)
 
 
 def with_(cell: Cell, section: str, **changes) -> Cell:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from rap.assembly import Assembly
+from rap.assembly import SHIPPED_ASSEMBLIES, Assembly
 from rap.errors import InputError
 from rap.plan.report.result import PlanResult
 
@@ -51,10 +51,8 @@ def plan_of(doc, source: str) -> PlanResult:
 
 def find_assembly(plan_path: str | Path, name: str) -> Path | None:
     """The assembly file a plan names when none is given (module doc), or None."""
-    import rap
-
     here = Path(plan_path).resolve().parent / f"{name}.json"
-    shipped = Path(rap.__file__).resolve().parent / "data" / "assemblies" / f"{name}.json"
+    shipped = SHIPPED_ASSEMBLIES / f"{name}.json"
     return next((p for p in (here, shipped) if p.is_file()), None)
 
 

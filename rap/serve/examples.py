@@ -12,16 +12,15 @@ from __future__ import annotations
 
 import copy
 import functools
-from pathlib import Path
 
-from rap.assembly import assembly_to_json
+from rap.assembly import SHIPPED_ASSEMBLIES, assembly_to_json
 from rap.errors import InputError
 from rap.io import load_assembly
 
 __all__ = ["EXAMPLES_DIR", "UnknownExample", "example", "example_list"]
 
 #: the reference assemblies shipped in the package
-EXAMPLES_DIR = Path(__file__).resolve().parent.parent / "data" / "assemblies"
+EXAMPLES_DIR = SHIPPED_ASSEMBLIES
 
 
 class UnknownExample(InputError):

@@ -12,7 +12,7 @@ cell that is not TOML or has a bad key (``rap.robot.cell``'s line naming the key
 
 ``program_file(request)`` builds the program as ``rap-farm export`` does (``rap.robot.program.
 build_program``, then the arm's kinematic check ``rap.robot.kinematics.check_program``, then
-``rap.robot.writers``) and returns a ``ProgramFile``: the text, its attachment file name
+``rap.robot.writers.render``) and returns a ``ProgramFile``: the text, its attachment file name
 (``ASSEMBLY.script``, ``ASSEMBLY-waypoints.csv``, ``ASSEMBLY-waypoints.json``), its media type,
 and the check's figures. Refusals are ``BadRequest`` with the CLI's one line: 422 for a plan one
 arm cannot build (``TwoHandedPlan``: made without a fixture, ``plan --base``, or with a step that
@@ -30,16 +30,16 @@ from __future__ import annotations
 import json
 import math
 import re
-import tomllib
 from dataclasses import dataclass
 from decimal import Decimal
+from pathlib import Path
 
 from rap.assembly import LIMITS, Assembly
 from rap.errors import InputError
 from rap.plan.report.result import PlanResult, is_assembly_order
-from rap.robot.cell import Cell, parse_cell
+from rap.robot.cell import Cell, cell_from_toml
 from rap.robot.inputs import check_assembly, plan_of
-from rap.serve.api import BadRequest, request_assembly, request_object
+from rap.serve.api import BadRequest, ServeConfig, request_assembly, request_object
 
 __all__ = ["EXPORT_KEYS", "EXPORT_FORMATS", "DEFAULT_FORMAT", "PROGRAM_DETAILS_HEADER",
            "ExportRequest", "ProgramFile", "parse_export_request", "program_file",
@@ -103,17 +103,13 @@ def _cell(raw) -> Cell:
         raise BadRequest(400, "cell: must be a cell file's TOML text (a string), e.g. "
                               "\"[assembly]\\nposition_m = [0.45, 0.1]\"")
     try:
-        doc = tomllib.loads(raw)
-    except tomllib.TOMLDecodeError as exc:
-        raise BadRequest(400, f"cell: not a TOML file ({exc})") from None
-    try:
-        return parse_cell(doc, "cell")
+        return cell_from_toml(raw, "cell")
     except InputError as exc:
         raise BadRequest(400, str(exc)) from None
 
 
 def parse_export_request(body: bytes, *, max_parts: int = LIMITS.max_parts,
-                         max_vertices: int = 20_000) -> ExportRequest:
+                         max_vertices: int = ServeConfig.max_vertices) -> ExportRequest:
     """The ``ExportRequest`` of a ``POST /export`` body, or ``BadRequest`` (module doc)."""
     doc = request_object(body, EXPORT_KEYS,
                          '{"assembly": {...}, "plan": {...}, "format": "urscript"}')
@@ -147,7 +143,7 @@ def program_file(req: ExportRequest) -> ProgramFile:
     place for the cup."""
     from rap.robot.kinematics import Unreachable, check_program
     from rap.robot.program import TwoHandedPlan, build_program
-    from rap.robot.writers import urscript, waypoints_csv, waypoints_json
+    from rap.robot.writers import render
 
     try:
         program = build_program(req.plan, req.assembly, req.cell)
@@ -156,15 +152,14 @@ def program_file(req: ExportRequest) -> ProgramFile:
         raise BadRequest(422, str(exc)) from None
     except InputError as exc:
         raise BadRequest(400, str(exc)) from None
-    write = {"urscript": urscript, "waypoints-csv": waypoints_csv,
-             "waypoints-json": waypoints_json}[req.format]
     ending, media = EXPORT_FORMATS[req.format]
+    text = render(program, req.format.split("-")[0], Path(ending).suffix)  # waypoints-csv: .csv
     details = {"format": req.format, "steps": len(program.steps),
                "waypoints": len(program.waypoints), "fixture": program.fixture,
                "plane": program.frame.plane, "arm": program.cell.robot.arm,
                "solves": report.solves, "worst_position_m": report.worst_position_m,
                "worst_angle_rad": report.worst_angle_rad, "check_seconds": report.seconds}
-    return ProgramFile(write(program), _stem(req.plan.assembly) + ending, media, details)
+    return ProgramFile(text, _stem(req.plan.assembly) + ending, media, details)
 
 
 # -- the request body in the OpenAPI document (the endpoint reads the raw body itself) ----------

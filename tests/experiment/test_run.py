@@ -142,7 +142,12 @@ def test_one_model_for_every_assembly_is_refused_where_it_was_trained(tmp_path):
                             methods=["rap", "sim"], model=tmp_path / "shipped.pt", **deps)
     assert [r.method for r in rows] == ["rap", "sim"] * 2 and rows[0].status == "found"
     assert rows[0].extra["model"] == str(tmp_path / "shipped.pt")
-    assert len(loaded) == 2  # read once for the check, loaded once for both assemblies
+    assert len(loaded) == 1  # read once: checked and planned with for both assemblies
+    given = E.check_held_out(tmp_path / "shipped.pt", [row], loader(cnn, loaded))
+    assert given is cnn and len(loaded) == 2
+    E.run_experiment(ds, [row], sim_backend=HashSim(), methods=["rap"],
+                     model=tmp_path / "shipped.pt", loaded_model=given, **deps)
+    assert len(loaded) == 2  # a model the caller read is not read again
     with pytest.raises(ParameterError, match="trained on triangles") as err:
         E.run_experiment(ds, [row, tri], sim_backend=HashSim(), methods=["rap"],
                          model=tmp_path / "shipped.pt", **deps)

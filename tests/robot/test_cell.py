@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from rap.errors import EXIT_INPUT
-from rap.robot.cell import DEFAULT_CELL_FILE, Cell, CellError, load_cell
+from rap.robot.cell import DEFAULT_CELL_FILE, Cell, CellError, cell_from_toml, load_cell
 
 from tests.robot.cases import STACK, STACK_PLAN
 
@@ -38,6 +38,17 @@ def test_given_keys_override_and_slots_are_kept(tmp_path):
     assert cell.assembly.yaw_deg == 30.0 and cell.tray.slot_of("block1") == (0.3, -0.3)
     assert cell.motion == Cell().motion
 
+
+
+def test_a_cells_text_reads_as_its_file_does(tmp_path):
+    text = "[assembly]\nyaw_deg = 30\n[tray]\nslots = { block1 = [0.3, -0.3] }\n"
+    path = tmp_path / "cell.toml"
+    path.write_text(text)
+    assert cell_from_toml(text).to_dict() == load_cell(path).to_dict()
+    with pytest.raises(CellError, match=r"^cell: not a TOML file \("):
+        cell_from_toml("[assembly\n")
+    with pytest.raises(CellError, match=r"^mine: robot\.arm: "):
+        cell_from_toml("[robot]\narm = \"ur5\"\n", "mine")
 
 def test_the_cli_exits_2_naming_the_key(tmp_path, run_cli):
     path = tmp_path / "cell.toml"

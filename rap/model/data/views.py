@@ -24,6 +24,7 @@ from typing import Callable
 
 import numpy as np
 
+from rap.assembly import SHIPPED_ASSEMBLIES
 from rap.errors import InputError
 
 __all__ = ["extra_channels", "descriptor_columns", "DatasetGeometry", "assembly_file", "cache_dir",
@@ -42,9 +43,7 @@ def assembly_file(root: str | Path, name: str) -> Path | None:
     p = Path(root) / "_assemblies" / f"{name}.json"
     if p.is_file():
         return p
-    import rap
-
-    p = Path(rap.__file__).resolve().parent / "data" / "assemblies" / f"{name}.json"
+    p = SHIPPED_ASSEMBLIES / f"{name}.json"
     return p if p.is_file() else None
 
 

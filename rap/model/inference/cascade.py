@@ -166,9 +166,9 @@ def load_default(path: str | Path, cnn) -> CascadeScorer | None:
     model_path = companion(path)
     if not model_path.is_file():
         return None
+    if DescriptorModel.read_meta(model_path).get("checkpoint_sha256") != checkpoint_sha256(path):
+        return None  # fitted for another checkpoint: its trees are not even read
     model = DescriptorModel.load(model_path)
-    if model.meta.get("checkpoint_sha256") != checkpoint_sha256(path):
-        return None
     bounds = None
     if bounds_path(model_path).is_file():
         from rap.model.calibration import load

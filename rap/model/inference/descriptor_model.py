@@ -125,14 +125,19 @@ class DescriptorModel:
         np.savez_compressed(buf, **arrays)
         return write_bytes_atomic(path, buf.getvalue())
 
+    @staticmethod
+    def read_meta(path: str | Path) -> dict:
+        """The ``meta`` of the model in ``path``, without reading its trees or layers (what a
+        caller checks before it loads); ``ValueError`` for a file of another format."""
+        with np.load(path, allow_pickle=False) as z:
+            return _meta(z, path)
+
     @classmethod
     def load(cls, path: str | Path) -> "DescriptorModel":
         """The model in ``path``; ``ValueError`` for a file of another format."""
         with np.load(path, allow_pickle=False) as z:
+            meta = _meta(z, path)
             try:
-                meta = json.loads(str(z["meta"]))
-                if meta.get("format") != FORMAT:
-                    raise ValueError(f"{path}: not a {FORMAT} file")
                 if "booster" in z.files:
                     return cls(z["mean"], z["scale"], [], meta, booster=str(z["booster"]))
                 layers, i = [], 0
@@ -144,3 +149,14 @@ class DescriptorModel:
                 return cls(z["mean"], z["scale"], layers, meta)
             except KeyError as exc:
                 raise ValueError(f"{path}: missing {exc}") from None
+
+
+def _meta(z, path: str | Path) -> dict:
+    """``meta`` of an open model file ``z`` (``np.load``), checked to be of this format."""
+    try:
+        meta = json.loads(str(z["meta"]))
+    except KeyError as exc:
+        raise ValueError(f"{path}: missing {exc}") from None
+    if meta.get("format") != FORMAT:
+        raise ValueError(f"{path}: not a {FORMAT} file")
+    return meta

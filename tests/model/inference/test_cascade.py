@@ -12,6 +12,7 @@ import pytest
 import rap
 from rap.io import load_assembly
 from rap.model.inference.cascade import CascadeScorer, companion, load_default
+from rap.model.inference.descriptor_model import DescriptorModel
 from rap.model.inference.operations import OperationPredictor
 from rap.plan.problem import PlanningProblem
 from rap.sim.params import SimParams
@@ -68,7 +69,7 @@ def test_batching_changes_nothing(problem_ops):
     assert scorer.expected_score(problem, []).shape == (0,)
 
 
-def test_a_descriptor_model_for_another_checkpoint_is_not_used(tmp_path):
+def test_a_descriptor_model_for_another_checkpoint_is_not_used(tmp_path, monkeypatch):
     ckpt = tmp_path / "mine.pt"
     ckpt.write_bytes(SHIPPED.read_bytes() + b"")  # same bytes: used
     shutil.copy(companion(SHIPPED), companion(ckpt))
@@ -79,3 +80,6 @@ def test_a_descriptor_model_for_another_checkpoint_is_not_used(tmp_path):
     with open(other, "ab") as f:  # another file (a trailing byte): the CNN alone
         f.write(b"\0")
     assert load_default(other, None) is None
+    loads = []  # the checksum is checked before the trees are read: they never are
+    monkeypatch.setattr(DescriptorModel, "load", classmethod(lambda cls, p: loads.append(p)))
+    assert load_default(other, None) is None and loads == []

@@ -25,6 +25,7 @@ def test_round_trip(tmp_path):
     x = np.random.default_rng(1).normal(size=(7, 12)).astype(np.float32)
     np.testing.assert_array_equal(back.logits(x), m.logits(x))
     assert back.meta["band"] == [0.3, 0.7] and back.temperature == 1.3
+    assert DescriptorModel.read_meta(path) == back.meta
 
 
 def test_head_is_the_binomial_head_with_temperature():
@@ -61,3 +62,5 @@ def test_refuses_another_file(tmp_path):
     np.savez(path, meta=np.array(json.dumps({"format": "something else"})), mean=np.zeros(12))
     with pytest.raises(ValueError, match="not a"):
         DescriptorModel.load(path)
+    with pytest.raises(ValueError, match="not a"):
+        DescriptorModel.read_meta(path)
