@@ -33,6 +33,11 @@ def serve_command(
     cache: Path = typer.Option(None, "--cache", help="Score cache file [default: "
                                "~/.cache/rap-farm/scores.json or $RAP_CACHE]."),
     no_cache: bool = typer.Option(False, "--no-cache", help="Keep scores in memory only."),
+    budget: float = typer.Option(120.0, "--budget", min=0.001, max=600.0, help="A request's time "
+                                 "budget in seconds when it names none (its budget_s, at most "
+                                 "600): the search answers the best plan found within it."),
+    engine: str = typer.Option("auto", "--engine", help="The CNN's scorer: auto (the default "
+                               "scorer, as rap-farm plan's), cnn or torch (the CNN alone)."),
 ):
     """Serve plans over HTTP: GET /health, POST /plan, docs at /docs."""
     from rap.commands._console import console as make_console
@@ -49,7 +54,7 @@ def serve_command(
 
     config = ServeConfig(host=host, port=port, model_path=model_path, workers=workers,
                          cache_path=str(cache_path) if cache_path else None, token=token,
-                         trials=trials)
+                         trials=trials, request_budget_s=budget, engine=engine)
     config.check()  # before starting Ray: a refused configuration costs nothing
     if address is not None and not address.strip():
         raise InputError("--address: empty")

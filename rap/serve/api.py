@@ -3,15 +3,16 @@
 Every request's work is bounded: the assembly within ``rap.assembly.LIMITS`` (coordinates,
 vertices, holes; checked on the numbers' text before any arithmetic), at most ``max_parts`` parts (``max_optimal_parts`` for the
 optimum, whose search visits every reachable subassembly), ``max_simulations`` fresh simulations
-and ``plan_budget_s`` seconds of search; a request that reaches a budget gets the
-``"feasible": null, "status": "budget spent"`` document. Reading and validating take at most
-``parse_budget_s`` and the whole answer at most ``plan_budget_s + answer_grace_s``; past either the
-service answers 503 (``rap.serve.http_app`` runs both off its event loop).
+and a time budget, the request's ``budget_s`` (``rap.serve.budget``: anytime for the search, hard
+for the others: a ``"feasible": null, "status": "budget spent"`` answer). Reading and validating
+take at most ``parse_budget_s`` and the whole answer at most ``budget_s + answer_grace_s``; past
+either the service answers 503 (``rap.serve.http_app`` runs both off its event loop).
 
 ``ServeConfig`` holds every setting of ``rap-farm serve`` (``check()`` refuses, in one line, what
 must not start: a non-loopback host without a bearer token, a short token, a bad port).
-``parse_plan_request(body)`` turns a ``POST /plan`` body into ``(assembly, method, root seed,
-planner options, cell constraints)`` or raises ``BadRequest(status, one line)``; the options (``PLANNER_OPTIONS``)
+``parse_plan_body(body)`` turns a ``POST /plan`` body into a ``PlanBody`` (assembly, method, root
+seed, planner options, cell constraints, budget) or raises ``BadRequest(status, one line)``
+(``parse_plan_request``: its first five as a tuple); the options (``PLANNER_OPTIONS``)
 are those of ``rap-farm plan`` for the method asked for (search: ``simulations``, at most
 ``max_simulations``, ``trust``, ``optimism``, ``beam_width``; rap: ``fallback_k``,
 ``high_probability``, ``fallback_optimism``); numbers are parsed as decimals, exactly as
@@ -43,12 +44,14 @@ from rap.plan.cell.help import CELL_HELP
 from rap.plan.cell.constraints import CellConstraints
 from rap.plan.methods import DEFAULT_METHOD, METHODS, service_options
 from rap.seeds import DEFAULT_ROOT_SEED
+from rap.serve.budget import read_budget_s
 
-__all__ = ["ServeConfig", "BadRequest", "parse_plan_request", "read_upload", "is_loopback",
+__all__ = ["ServeConfig", "BadRequest", "PlanBody", "parse_plan_body", "parse_plan_request",
+           "read_upload", "is_loopback",
            "PLAN_BODY_OPENAPI", "UPLOAD_OPENAPI", "UPLOAD_NAME_HELP",
            "REQUEST_KEYS", "DETAILS_HEADER", "PLANNER_OPTIONS", "UPLOAD_SUFFIXES"]
 
-REQUEST_KEYS = ("assembly", "method", "seed", "options", "constraints")
+REQUEST_KEYS = ("assembly", "method", "seed", "options", "constraints", "budget_s")
 # option -> (methods it applies to, kind, low, high, low inclusive): make_planner's keywords, as
 # the methods declare them (rap.plan.methods), for the API's schema
 PLANNER_OPTIONS = {name: (methods, opt.kind, opt.low, opt.high, not opt.low_open)
@@ -67,18 +70,23 @@ class ServeConfig:
     workers: int | None = None  # simulation actors; None: every CPU of the cluster
     cache_path: str | None = None  # score cache file; None: memory only
     token: str | None = None
+    engine: str = "auto"  # the CNN's scorer (OperationPredictor.load): the CLI's default
     trials: int = 100  # simulator trials per operation
     max_body_bytes: int = 1 << 20
-    # every assembly the input bounds allow (rap.assembly.LIMITS): a large one is bounded by
-    # plan_budget_s and max_simulations (a "budget spent" answer), not refused
+    # every assembly the input bounds allow (rap.assembly.LIMITS): a large one is bounded by its
+    # request's budget (the search answers its best plan by then) and max_simulations, not refused
     max_parts: int = LIMITS.max_parts
     max_vertices: int = 20_000  # in all; the worst-case validation stays within parse_budget_s
     max_optimal_parts: int = 16  # the optimum's search visits every reachable subassembly
     max_simulations: int = 2000  # fresh simulations of one request's search
     max_concurrent: int = 16  # requests planned at once
-    plan_budget_s: float = 600.0  # wall-time budget of one request's search
+    # a request's time budget when it names none: a page user waits a minute or two, and the
+    # default plans a 100-part drawing in 55-68 s on 2 CPUs (docs/SERVICE.md)
+    request_budget_s: float = 120.0
+    plan_budget_s: float = 600.0  # the most a request's budget_s may be
+    eval_share: float = 0.25  # of the budget kept from the search for the evaluation and answer
     parse_budget_s: float = 10.0  # reading and validating one request's assembly (off the loop)
-    answer_grace_s: float = 30.0  # past plan_budget_s + this, a request is answered 503
+    answer_grace_s: float = 30.0  # past the request's budget_s + this, it is answered 503
     cache_flush_s: float = 30.0  # write the cache file at most this often
 
     def to_dict(self) -> dict:
@@ -91,6 +99,11 @@ class ServeConfig:
         """Raise ``InputError`` (one line) for a configuration that must not start."""
         if not 0 < self.port < 65536:
             raise InputError(f"--port {self.port}: choose 1..65535")
+        if not 0 < self.request_budget_s <= self.plan_budget_s:
+            raise InputError(f"--budget {self.request_budget_s:g}: choose a number of seconds in "
+                             f"(0, {self.plan_budget_s:g}]")
+        if self.engine not in ("auto", "cnn", "torch"):
+            raise InputError(f"--engine {self.engine!r}: choose auto, cnn or torch")
         if self.token is not None and len(self.token) < 16:
             raise InputError("--token: use at least 16 characters (e.g. python -c 'import secrets; "
                              "print(secrets.token_urlsafe(32))')")
@@ -202,10 +215,24 @@ def request_assembly(raw, max_parts: int, max_vertices: int) -> Assembly:
         raise BadRequest(400, "assembly: nested too deeply") from None
 
 
-def parse_plan_request(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optimal_parts: int = 16,
-                       max_simulations: int = 2000, max_vertices: int = 20_000):
-    """(assembly, method, root seed, planner options, ``CellConstraints``) of a ``POST /plan``
-    body, or ``BadRequest``."""
+@dataclass(frozen=True)
+class PlanBody:
+    """A ``POST /plan`` body, read and checked (``parse_plan_body``). ``budget_s``: the request's
+    time budget in seconds (its own, else the service's default)."""
+
+    assembly: Assembly
+    method: str
+    seed: int
+    options: dict
+    constraints: CellConstraints
+    budget_s: float
+
+
+def parse_plan_body(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optimal_parts: int = 16,
+                    max_simulations: int = 2000, max_vertices: int = 20_000,
+                    default_budget_s: float = ServeConfig.request_budget_s,
+                    max_budget_s: float = ServeConfig.plan_budget_s) -> PlanBody:
+    """The ``PlanBody`` of a ``POST /plan`` body, or ``BadRequest``."""
     doc = request_object(body, REQUEST_KEYS, '{"assembly": {...}, "method": ..., "seed": ...}',
                          " (a plan request needs 6 levels)")
     if "assembly" not in doc:
@@ -217,6 +244,10 @@ def parse_plan_request(body: bytes, *, max_parts: int = LIMITS.max_parts, max_op
     if isinstance(seed, bool) or not isinstance(seed, int) or not -(1 << 63) <= seed < (1 << 63):
         raise BadRequest(400, f"seed {seed!r}: must be an integer in [-2^63, 2^63)")
     options = _planner_options(doc.get("options", {}), method, max_simulations)
+    try:
+        budget_s = read_budget_s(doc.get("budget_s"), default_budget_s, max_budget_s)
+    except ValueError as exc:
+        raise BadRequest(*exc.args) from None
     constraints = _constraints(doc.get("constraints", {}))
     assembly = request_assembly(doc["assembly"], max_parts, max_vertices)
     if method == "optimal" and len(assembly) > max_optimal_parts:
@@ -226,7 +257,14 @@ def parse_plan_request(body: bytes, *, max_parts: int = LIMITS.max_parts, max_op
         constraints.check(assembly)
     except ParameterError as exc:
         raise BadRequest(400, exc.for_name("constraints.base")) from None
-    return assembly, method, int(seed), options, constraints
+    return PlanBody(assembly, method, int(seed), options, constraints, budget_s)
+
+
+def parse_plan_request(body: bytes, **limits):
+    """(assembly, method, root seed, planner options, ``CellConstraints``) of a ``POST /plan``
+    body (``parse_plan_body``'s first five), or ``BadRequest``."""
+    got = parse_plan_body(body, **limits)
+    return got.assembly, got.method, got.seed, got.options, got.constraints
 
 
 def _upload_name(name: str | None) -> str:
@@ -281,6 +319,12 @@ PLAN_BODY_OPENAPI = {
                 "method": {"type": "string", "enum": list(METHODS), "default": DEFAULT_METHOD},
                 "seed": {"type": "integer", "description": "Root seed of the simulator's "
                          "randomness", "default": DEFAULT_ROOT_SEED},
+                "budget_s": {"type": "number", "exclusiveMinimum": 0,
+                             "description": "The request's time budget in seconds (default "
+                             "and cap: the service's, 120 and 600 unless set otherwise). The "
+                             "search answers the best plan found within it (it stops simulating "
+                             "at 75% of it, leaving the rest for the plan's evaluation); other "
+                             "methods answer \"budget spent\" past it"},
                 "options": {"type": "object", "additionalProperties": False,
                             "description": "The method's options, as `rap-farm plan`'s "
                             "(search: simulations, trust, optimism, beam_width; rap: "
@@ -308,7 +352,8 @@ PLAN_BODY_OPENAPI = {
                                          "interval, reason and robot poses; README, Plan files)"},
                   "400": {"description": "Malformed request or invalid assembly"},
                   "401": {"description": "Missing or wrong bearer token"},
-                  "413": {"description": "Body or assembly too large"},
+                  "413": {"description": "Body or assembly too large, or budget_s over the "
+                                         "service's cap"},
                   "503": {"description": "Reading or planning past the request's time budget"}},
 }
 

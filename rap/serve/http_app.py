@@ -25,9 +25,8 @@ offline):
   robot cell's, ``rap.plan.cell.constraints.CellConstraints.from_json``)}``. 200 with exactly the document that
   ``rap-farm plan --out`` writes (``PlanResult.to_json()``): ``"feasible": true`` with the steps, or
   ``"feasible": false`` with the interlocked parts (an interlocked assembly is a valid question),
-  or ``"feasible": null`` when the request's budget (simulations, seconds) ran out. The header
-  ``X-Plan-Details`` carries ``{"eval_seconds", "stats"}`` (what ``plan --server`` prints besides
-  the table).
+  or ``"feasible": null`` when the request's budget (``"budget_s"``: ``rap.serve.budget``) ran
+  out. ``X-Plan-Details`` carries ``{"eval_seconds", "stats"}`` (what ``plan --server`` prints).
 * ``POST /import?name=FILE``: the body is a file's bytes, a drawing (``.dxf``, ``.svg``) or an
   assembly file (``.json``), read by ``rap.io.load_assembly`` as the CLI reads it
   (``rap.serve.api.read_upload``); 200 with its assembly JSON (what ``rap-farm import`` writes).
@@ -41,7 +40,7 @@ with ``assembly`` as the source), an unknown method or a seed that is not an int
 body over ``max_body_bytes`` or an assembly of more than ``max_parts`` parts (``max_optimal_parts``
 for method optimal); 401 without the bearer token when one is set; 503 when reading the assembly
 (or an uploaded file) takes over ``parse_budget_s`` or the answer (or ``/inspect``'s NDBG) over
-``plan_budget_s + answer_grace_s``. A bad upload (no ``name`` or another suffix, a bad drawing or
+``budget_s + answer_grace_s``. A bad upload (no ``name`` or another suffix, a bad drawing or
 assembly) is a 400 with the reader's one line, naming the file as the client did. Numbers are
 parsed as decimals, exactly as ``load_assembly`` reads a file, within ``rap.assembly.LIMITS``.
 Reading, validating and planning run on threads, never on the event loop, so ``/health`` answers
@@ -88,10 +87,10 @@ from rap import __version__
 from rap.assembly import Assembly, assembly_to_json
 from rap.errors import InputError, RapError
 from rap.plan.methods import needs_model
-from rap.plan.scoring.scorer import Budget
 
 from rap.serve.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
-                          BadRequest, ServeConfig, parse_plan_request, read_upload)
+                          BadRequest, ServeConfig, parse_plan_body, read_upload)
+from rap.serve.budget import request_limits
 from rap.serve import robot_program
 from rap.serve.examples import UnknownExample, example, example_list
 
@@ -197,7 +196,8 @@ class PlanningApp:
         self.config = ServeConfig(**config)
         self.params = SimParams(trials=self.config.trials)
         self.service = PlanningService(self.config.model_path, workers=self.config.workers,
-                                       cache_path=self.config.cache_path)
+                                       cache_path=self.config.cache_path,
+                                       engine=self.config.engine)
         if self.service.pool is not None:
             self.service.pool.ready(timeout_s=600)
         self._executor = ThreadPoolExecutor(self.config.max_concurrent,
@@ -219,14 +219,14 @@ class PlanningApp:
         return None
 
     def _read(self, body: bytes):
-        """``parse_plan_request`` with this service's limits (runs on a reader thread)."""
-        parsed = parse_plan_request(body, max_parts=self.config.max_parts,
-                                    max_optimal_parts=self.config.max_optimal_parts,
-                                    max_simulations=self.config.max_simulations,
-                                    max_vertices=self.config.max_vertices)
-        if needs_model(parsed[1]) and self.service.cnn is None:
-            raise BadRequest(400, f"method {parsed[1]!r}: this service has no CNN model; ask for "
-                                  f"method sim")
+        """``parse_plan_body`` with this service's limits (runs on a reader thread)."""
+        c = self.config
+        parsed = parse_plan_body(body, max_parts=c.max_parts, max_optimal_parts=c.max_optimal_parts,
+                                 max_simulations=c.max_simulations, max_vertices=c.max_vertices,
+                                 default_budget_s=c.request_budget_s, max_budget_s=c.plan_budget_s)
+        if needs_model(parsed.method) and self.service.cnn is None:
+            raise BadRequest(400, f"method {parsed.method!r}: this service has no CNN model; ask "
+                                  f"for method sim")
         return parsed
 
     def _read_upload(self, name: str | None, body: bytes) -> Assembly:
@@ -286,13 +286,13 @@ class PlanningApp:
                                     f"within {budget:g} s; send a smaller one", f"reading {what}",
                                     fn, *args, body)
 
-    def _plan(self, assembly, method: str, seed: int, options: dict, constraints=None):
+    def _plan(self, body, arrived: float):
+        """Plan ``body`` (a ``PlanBody``) within what is left of its budget (``rap.serve.budget``)."""
         from rap.serve.planning import PlanRequest
 
-        req = PlanRequest(assembly, method, self.params, seed, planner_options=options,
-                          constraints=constraints,
-                          budget=Budget(max_simulations=self.config.max_simulations,
-                                        max_seconds=self.config.plan_budget_s))
+        options, budget = request_limits(body, arrived, self.config)
+        req = PlanRequest(body.assembly, body.method, self.params, body.seed, budget=budget,
+                          planner_options=options, constraints=body.constraints)
         result = self.service.plan(req)
         self._maybe_flush()
         return result
@@ -325,16 +325,17 @@ class PlanningApp:
     @api.post("/plan", summary="Plan a robust assembly sequence", openapi_extra=PLAN_BODY_OPENAPI)
     async def plan(self, request: Request,
                    creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+        arrived = time.monotonic()  # the request's budget counts from here
         # reading and exact validation run off the event loop: /health keeps answering
         read = await self._read_request(request, creds, "the assembly", self._read)
         if isinstance(read, JSONResponse):
             return read
-        assembly, method, seed, options, constraints = read
+        left = read.budget_s + self.config.answer_grace_s - (time.monotonic() - arrived)
         result = await self._off_loop(
-            self._executor, self.config.plan_budget_s + self.config.answer_grace_s,
-            f"planning took longer than its budget of {self.config.plan_budget_s:g} s; ask with "
-            f"fewer simulations", f"planning {assembly.name} with {method}", self._plan, assembly,
-            method, seed, options, constraints)
+            self._executor, max(left, 1e-3),
+            f"planning took longer than its budget of {read.budget_s:g} s; ask with a larger "
+            f"budget_s or fewer simulations", f"planning {read.assembly.name} with {read.method}",
+            self._plan, read, arrived)
         if isinstance(result, JSONResponse):
             return result
         self.served += 1

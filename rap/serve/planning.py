@@ -131,14 +131,14 @@ class PlanRequest:
 class PlanningService:
     """Actor body (see module doc). ``pool``: a ``SimPool`` to share (None: make one with
     ``workers`` actors); ``local_sim``: simulate in this actor instead (tests, no pool);
-    ``engine``: the CNN's inference engine (``OperationPredictor.load``); torch by default: a
-    long-lived service pays its import once, and its forward pass is faster than the numpy
-    engine's on search's small batches (``python -m research.benchmarks.cnn_engines``;
-    docs/RESULTS.md)."""
+    ``engine``: the CNN's scorer (``OperationPredictor.load``); ``"auto"`` by default, the CLI's:
+    the default scorer (the gradient-boosted cascade beside the shipped model, the CNN only where it
+    is unsure; ``rap.model.inference.cascade``), so that the service plans as ``rap-farm plan``
+    does; ``"torch"`` or ``"cnn"``: the CNN alone (``rap-farm serve --engine``)."""
 
     def __init__(self, model_path: str | None = None, *, pool: SimPool | None = None,
                  workers: int | None = None, cache_path: str | None = None, device: str = "cpu",
-                 local_sim: bool = False, engine: str = "torch"):
+                 local_sim: bool = False, engine: str = "auto"):
         self.cnn = (OperationPredictor.load(model_path, device=device, engine=engine) if model_path
                     else None)
         self.model_path = model_path
@@ -204,11 +204,11 @@ _REMOTE_SERVICE = ray.remote(PlanningService)
 def start_service(model_path: str | None = None, *, pool: SimPool | None = None,
                   workers: int | None = None, cache_path: str | None = None,
                   max_concurrency: int = 4, local_sim: bool = False, device: str = "cpu",
-                  ready_timeout_s: float = 300.0):
+                  engine: str = "auto", ready_timeout_s: float = 300.0):
     """Start a ``PlanningService`` actor (Ray must be initialised) and wait until it is ready."""
     handle = _REMOTE_SERVICE.options(num_cpus=0, max_concurrency=max_concurrency).remote(
         model_path, pool=pool, workers=workers, cache_path=cache_path, device=device,
-        local_sim=local_sim)
+        local_sim=local_sim, engine=engine)
     ray.get(handle.ready.remote(), timeout=ready_timeout_s)
     return handle
 

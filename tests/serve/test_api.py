@@ -8,7 +8,8 @@ import pytest
 
 from rap.assembly import assembly_to_json
 from rap.errors import InputError
-from rap.serve.api import BadRequest, ServeConfig, is_loopback, parse_plan_request
+from rap.serve.api import BadRequest, ServeConfig, is_loopback, parse_plan_body, parse_plan_request
+from rap.serve.budget import anytime_limits
 from rap.geometry.families.simple import grid
 from rap.seeds import DEFAULT_ROOT_SEED
 
@@ -115,3 +116,35 @@ def test_a_hundred_part_drawing_is_a_question_not_a_refusal():
     with pytest.raises(BadRequest) as err:
         parse_plan_request(body, max_parts=64)
     assert err.value.status == 413 and "100 parts" in err.value.message
+
+
+def test_a_request_budget_defaults_to_the_services_and_stays_within_its_cap():
+    body = {"assembly": SQUARES}
+    assert parse_plan_body(json.dumps(body).encode()).budget_s == ServeConfig.request_budget_s
+    assert parse_plan_body(json.dumps(body).encode(), default_budget_s=30.0).budget_s == 30.0
+    got = parse_plan_body(json.dumps({**body, "budget_s": 7.5}).encode(), max_budget_s=10.0)
+    assert got.budget_s == 7.5 and type(got.budget_s) is float
+    for bad, status in ((0, 400), (-1, 400), ("60", 400), (True, 400), (10.5, 413)):
+        with pytest.raises(BadRequest) as err:
+            parse_plan_body(json.dumps({**body, "budget_s": bad}).encode(), max_budget_s=10.0)
+        assert err.value.status == status and "budget_s" in err.value.message
+
+
+def test_the_search_gets_the_budget_less_the_evaluations_share_as_its_time_limit():
+    # (options, hard seconds): the search's hard budget is the answer's deadline
+    assert anytime_limits("search", {}, 120.0, 0.25, 30.0) == ({"time_limit": 90.0}, 150.0)
+    # a request's own time limit, when smaller, wins; its 0 ("no limit") is the budget's
+    assert anytime_limits("search", {"time_limit": 5.0}, 120.0, 0.25, 30)[0]["time_limit"] == 5.0
+    assert anytime_limits("search", {"time_limit": 0.0}, 8.0, 0.25, 30)[0]["time_limit"] == 6.0
+    assert anytime_limits("search", {"time_limit": 500.0}, 8.0, 0.25, 30)[0]["time_limit"] == 6.0
+    # methods without a time limit keep their options and the request's budget as a hard one
+    assert anytime_limits("sim", {}, 120.0, 0.25, 30.0) == ({}, 120.0)
+    assert anytime_limits("rap", {"fallback_k": 2}, 120.0, 0.25, 30.0) == ({"fallback_k": 2}, 120.0)
+
+
+def test_the_service_scores_as_the_cli_does_by_default():
+    assert ServeConfig().engine == "auto"
+    with pytest.raises(InputError, match="--engine"):
+        ServeConfig(engine="onnx").check()
+    with pytest.raises(InputError, match="--budget"):
+        ServeConfig(request_budget_s=900.0).check()

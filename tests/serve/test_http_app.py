@@ -126,7 +126,7 @@ def _local_plan(assembly, method: str, seed: int, processes: int = 1) -> dict:
     from rap.plan.scoring.scorer import Scorer
     from rap.sim.params import SimParams
 
-    cnn = OperationPredictor.load(default_model_path(), engine="torch") if method == "rap" else None
+    cnn = OperationPredictor.load(default_model_path(), engine="auto") if method == "rap" else None
     problem = PlanningProblem(assembly, SimParams(trials=TRIALS), seed)
     sim = LocalSimulator(processes=processes)
     try:
@@ -218,6 +218,9 @@ BAD_REQUESTS = [
     ("too large", b"{\"assembly\": \"" + b"x" * (2 << 20) + b"\"}", 413),
     ("too many parts", _body({"parts": [{"id": f"p{i}", "polygon": [[i, 0], [i + 1, 0], [i, 1]]}
                                         for i in range(1001)]}), 413),  # past the input bounds
+    ("budget zero", _body(DOVETAIL, budget_s=0), 400),
+    ("budget not a number", _body(DOVETAIL, budget_s="60"), 400),
+    ("budget over the cap", _body(DOVETAIL, budget_s=601), 413),
 ]
 
 
@@ -348,6 +351,24 @@ def test_plan_server_prints_and_writes_what_the_service_planned(service, tmp_pat
     p = _cli(dove, "--server", service, cwd=tmp_path)  # no token
     assert p.returncode == 2 and "not authorised" in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
+
+
+def test_a_small_budget_gets_the_searchs_best_plan_and_greedy_budget_spent(service):
+    """``budget_s`` over HTTP: the search stops simulating by time and answers a complete, valid
+    plan with its bound; simulator-only greedy, without a time limit, answers "budget spent". No
+    time is asserted (the budget is far below either's exhaustive time, whatever the machine)."""
+    from rap.geometry.families.simple import grid
+
+    asm = grid(5)
+    status, doc, headers = _call(service, "/plan", _body(assembly_to_json(asm), budget_s=0.4))
+    assert status == 200 and doc["feasible"] is True, doc
+    assert json.loads(headers["x-plan-details"])["stats"]["stopped"] == "time"
+    plan = PlanResult.from_json(doc)
+    assert len(plan.steps) == len(asm) - 1 and check_plan(asm, plan.steps) == []
+    assert doc["bound"]["robustness_upper"] >= doc["robustness"]
+    status, doc, _ = _call(service, "/plan", _body(assembly_to_json(asm), method="sim",
+                                                   budget_s=0.4))
+    assert status == 200 and doc["feasible"] is None and doc["status"] == "budget spent", doc
 
 
 def test_search_options_travel_with_the_request(service, tmp_path):

@@ -425,6 +425,24 @@ def test_the_page_plans_a_dxf_drawing_as_the_api_does(page, service, tmp_path):
         page.screenshot(path=os.environ["RAP_PAGE_SCREENSHOT"], full_page=True)
 
 
+def test_the_page_plans_a_25_part_grid_within_the_default_budget(page, service, tmp_path):
+    """A larger drawing than the others (benchmarks/service_scale.py drops a 100-part one): the
+    page sends no budget_s, so the service's default applies; the plan it shows is complete and
+    valid. No time is asserted."""
+    from rap.geometry.families.simple import grid
+
+    asm = grid(5)
+    path = tmp_path / "grid25.json"
+    path.write_text(json.dumps(assembly_to_json(asm)))
+    open_page(page, service)
+    with page.expect_request(lambda r: r.url.endswith("/plan") and r.method == "POST") as sent:
+        plan_file(page, path, "search", 11)
+    assert "budget_s" not in json.loads(sent.value.post_data)
+    doc = json.loads(_download(page, "#dl-json", tmp_path / "grid25.plan.json").read_text())
+    assert doc["feasible"] is True and len(doc["steps"]) == 24 and len(_shown_steps(page)) == 24
+    assert check_plan(asm, PlanResult.from_json(doc).steps) == []
+
+
 # -- the robot cell (POST /plan's "constraints") ---------------------------------------------------
 
 CELLS = ROOT / "assemblies" / "cells"

@@ -86,3 +86,58 @@ def test_concurrent_callers_share_simulations_in_flight():
     assert shared.shared == 3
     alone = Slow().simulate_many(problem, ops)
     assert out[0] + out[1][3:] == alone
+
+
+class _SlowSimulator:
+    """The real simulator, ``per_op_s`` seconds slower an operation: a search that would run
+    longer than a small budget, whatever the machine."""
+
+    def __init__(self, backend, per_op_s: float):
+        self.backend, self.per_op_s = backend, per_op_s
+
+    def simulate_many(self, problem, ops):
+        import time
+
+        time.sleep(self.per_op_s * len(ops))
+        return self.backend.simulate_many(problem, ops)
+
+
+def test_a_small_budget_answers_the_best_plan_found_in_time():
+    """The HTTP service's path (``PlanningApp._plan``): the search is given the request's budget
+    less the evaluation's share as its time limit, and stops simulating by time with a complete,
+    valid plan and its bound, not "budget spent" (its hard budget: the answer's deadline, the
+    budget and the 30 s grace). No time is asserted."""
+    from rap.commands.plan import default_model_path
+    from rap.geometry.families.simple import grid
+    from rap.plan.scoring.scorer import Budget
+    from rap.serve.budget import anytime_limits
+    from rap.serve.planning import PlanningService, PlanRequest
+
+    svc = PlanningService(default_model_path(), local_sim=True)
+    svc.simulations.backend = _SlowSimulator(svc.simulations.backend, 0.2)
+    asm = grid(4)  # its search simulates ~35 operations: ~7 s here, over the 3 s time limit
+    options, hard_s = anytime_limits("search", {}, 4.0, 0.25, 30.0)
+    result = svc.plan(PlanRequest(asm, "search", PARAMS, root_seed=5, planner_options=options,
+                                  budget=Budget(max_simulations=2000, max_seconds=hard_s)))
+    assert options == {"time_limit": 3.0}
+    assert result.status is PlanStatus.FOUND, result.message
+    assert result.stats["stopped"] == "time"
+    assert len(result.steps) == len(asm) - 1 and check_plan(asm, result.steps) == []
+    assert result.bound is not None and result.bound["robustness_upper"] >= result.robustness
+
+
+def test_the_service_scores_with_the_clis_default_scorer():
+    import inspect
+
+    from rap.commands.plan import default_model_path
+    from rap.model.inference.operations import OperationPredictor
+    from rap.serve.api import ServeConfig
+    from rap.serve.planning import PlanningService, start_service
+
+    # the CLI loads OperationPredictor.load(model, engine="auto") (rap.commands.plan)
+    for fn in (PlanningService.__init__, start_service):
+        assert inspect.signature(fn).parameters["engine"].default == "auto"
+    assert ServeConfig().engine == "auto"
+    svc = PlanningService(default_model_path(), local_sim=True)
+    assert type(svc.cnn) is type(OperationPredictor.load(default_model_path(), engine="auto"))
+    assert type(svc.cnn).__name__ == "CascadeScorer"  # the shipped model's default scorer
