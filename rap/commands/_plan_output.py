@@ -155,7 +155,13 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
     if result.method == "search":
         how = (f"exact DP over {st.get('operations', '?')} operations" if st.get("search") == "exact"
                else f"beam of width {st.get('beam_width')}")
-        facts.append(f"search: {how}, {st.get('predicted_operations', 0)} operations scored by "
+        start = (f"from simulator-only greedy's plan (R {st['greedy_robustness']:.3g}, "
+                 f"{st.get('greedy_simulations', 0)} simulations), "
+                 if st.get("greedy_robustness") is not None else "")
+        facts.append(f"search: {how}, {start}{st.get('predicted_operations', 0)} operations "
+                     f"scored by the model, {st.get('search_simulations', 0)} simulated while "
+                     f"improving" if start else
+                     f"search: {how}, {st.get('predicted_operations', 0)} operations scored by "
                      f"the model, {st.get('search_simulations', 0)} simulated while planning")
     if result.method == "optimal" and "subassemblies" in st:
         facts.append(f"DP over {st['subassemblies']} subassemblies / {st['operations']} operations "
