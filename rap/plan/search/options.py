@@ -9,7 +9,7 @@ from typing import ClassVar
 
 from rap.plan.planners.options import PlannerOptions, option
 
-__all__ = ["SearchOptions", "GREEDY_FROM", "IMPROVE", "GREEDY_SHARE", "SEARCH_SIMULATIONS", "SEARCH_UPPER", "SEARCH_GAP", "DEFAULT_BEAM",
+__all__ = ["SearchOptions", "GREEDY_FROM", "IMPROVE", "GREEDY_SHARE", "WINDOW", "SEARCH_SIMULATIONS", "SEARCH_UPPER", "SEARCH_GAP", "DEFAULT_BEAM",
            "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE", "BOUND_ROUND"]
 
 DEFAULT_BEAM = 8
@@ -42,6 +42,10 @@ IMPROVE = 1.0
 #: with a ``time_limit``, greedy's start may take at most this share of it; past it the search
 #: plans without a first plan (the beam by the model's scores, then simulations while time is left)
 GREEDY_SHARE = 0.5
+#: beyond the exact budget, the chosen plan's runs of one-part steps are re-ordered WINDOW steps at
+#: a time (rap.plan.search.windows; research/window_reorder.py: gains of 1.12-1.25 on greedy's
+#: chains at 30-49 parts with 4)
+WINDOW = 4
 
 
 @dataclass(frozen=True)
@@ -98,6 +102,10 @@ class SearchOptions(PlannerOptions):
         float, IMPROVE, low=0.0, code="i", code_name="X", percent=True,
         help="Method {method}: after greedy's start, simulations to spend improving its plan, as "
              "a multiple of greedy's own (at most {simulations})")
+    window: int = option(
+        int, WINDOW, low=0, high=8, code="r", code_name="K",
+        help="Method {method}, beyond the exact budget: re-order the chosen plan's one-part steps "
+             "K at a time, exactly, with what is left of the simulations (0: off)")
     beam_width: int = option(int, DEFAULT_BEAM, low=1, code="w", code_name="W",
                              help="Method {method}: beam width beyond the exact search's budget")
     bound_round: int = option(

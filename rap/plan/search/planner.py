@@ -60,6 +60,7 @@ from rap.plan.search.beam import beam_states, log_product
 from rap.plan.search.options import SearchOptions
 from rap.plan.search.scores import SearchScores, incumbent, report
 from rap.plan.search.start import greedy_start
+from rap.plan.search.windows import polish
 from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
 from rap.plan.planners.base import Planner
 from rap.plan.problem import PlanningProblem
@@ -371,10 +372,13 @@ class SearchPlanner(Planner):
                       for i, seq in enumerate(full))
             return got[0], dict(full[-got[1]])
 
-        return self._refine(
-            scores, stats, choose,
-            lambda _: self._beam_value(run, scores),
-            incumbent_of)
+        plan = self._refine(scores, stats, choose, lambda _: self._beam_value(run, scores),
+                            incumbent_of)
+        left = stats["search_budget"] - stats["refine_simulations"]
+        if self.window and left > 0 and len(plan) == len(problem.whole) - 1:
+            plan = polish(problem, scores, plan, self.window, left, stats)
+            run.beam.append(list(plan.values()))  # the bound's scope covers the polished plan
+        return plan
 
 
 SearchOptions.planner = SearchPlanner
