@@ -139,6 +139,7 @@ def plan_command(
     optimism: float = _method_flag("optimism"), upper: float = _method_flag("upper"),
     confidence: float = _method_flag("confidence"), gap: float = _method_flag("gap"),
     time_limit: float = _method_flag("time_limit"), beam_width: int = _method_flag("beam_width"),
+    objective: str = _method_flag("objective"),  # the optimum's
     # the robot cell's constraints (rap.plan.cell.constraints; docs/PLANNING.md, Robot-cell constraints)
     base: str = BASE, linear: bool = LINEAR, directions: list[str] = DIRECTIONS,
     gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,
@@ -155,7 +156,8 @@ def plan_command(
     options = dict(samples=samples, fallback_k=fallback_k, high_probability=high_probability,
                    fallback_optimism=fallback_optimism, beam_width=beam_width,
                    simulations=simulations, trust=trust, optimism=optimism, upper=upper,
-                   confidence=confidence, gap=gap, time_limit=time_limit)  # None: not given
+                   confidence=confidence, gap=gap, time_limit=time_limit,
+                   objective=objective)  # None: not given
     _check_request(method, space, options, out, picture, err)
     cell = cell_constraints(base, linear, directions, gravity, friction, layers)
     _check_suffix(csv, "--csv", (".csv",))

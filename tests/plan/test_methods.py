@@ -26,7 +26,8 @@ def test_every_method_is_declared_whole(method):
     assert vars(from_table_name(method).build()) == vars(planner)
     names = {o.name for o in options.declared()}
     for opt in options.declared():
-        assert opt.kind in (int, float) and opt.help, opt
+        assert opt.kind in (int, float, str) and opt.help, opt
+        assert bool(opt.choices) == (opt.kind is str), opt  # a text option names its values
         text = opt.help_text(method, lambda n: f"<{n}>")  # every {name} it mentions is declared
         assert text.endswith("].") and "{" not in text
         assert {n for n in names if f"<{n}>" in text} <= names
@@ -57,6 +58,8 @@ def test_needs_model_and_the_default():
     ({"simulations": True}, "simulations True: choose an integer >= 0"),
     ({"samples": 0}, "samples 0: choose an integer >= 1"),
     ({"bogus": 1}, "bogus 1: no planning method has this option"),
+    ({"objective": "speed"}, "objective 'speed': choose one of robustness, attempts"),
+    ({"objective": 1}, "objective 1: choose one of robustness, attempts"),
 ])
 def test_options_are_checked_in_one_place_with_parameter_names(given, message):
     with pytest.raises(ParameterError, match=message):
@@ -116,8 +119,19 @@ def test_the_service_takes_the_declared_options_default_method_first():
     accepted = service_options()
     assert list(accepted) == ["simulations", "trust", "optimism", "upper", "confidence", "gap",
                               "time_limit", "beam_width", "fallback_k", "high_probability",
-                              "fallback_optimism"]  # not samples, b
+                              "fallback_optimism", "objective"]  # not samples, b
     assert accepted["trust"][1] == ("search",) and accepted["fallback_k"][1] == ("rap",)
     method, opt = option_named("optimism")
     assert method == "search" and isinstance(opt, Option) and (opt.low, opt.high) == (0.0, 1.0)
     assert opt.help_text(method, lambda n: "--" + n).startswith("Method search with --simulations")
+
+
+def test_the_optimums_objective_is_a_choice_reaching_the_planner():
+    assert make_planner("optimal").objective == "robustness"  # the default
+    assert make_planner("optimal", objective="attempts").objective == "attempts"
+    method, opt = option_named("objective")
+    assert method == "optimal" and opt.choices == ("robustness", "attempts")
+    assert opt.describe() == "one of robustness, attempts"
+    assert opt.help_text(method).endswith("[default: robustness].")
+    with pytest.raises(ValueError, match="no experiment method name"):
+        from_table_name("optimal", objective="attempts").table_name()  # no code: not in tables
