@@ -11,6 +11,8 @@ so every confidence statement about scores is about a binomial rate:
   two-sided interval of one rate (coverage at least the level for every true rate).
 * ``bonferroni(confidence, steps)``: the per-item level at which ``steps`` statements hold together
   with probability at least ``confidence`` (the union bound; no independence needed).
+* ``expected_attempts(score)``: the mean number of attempts of a step retried until it succeeds,
+  ``1/r`` (geometric; infinite for a score of 0): a plan's sum and the optimum's other objective.
 
 Floats only (statistics, not geometry); numpy and the standard library. A Clopper-Pearson bound
 is found by bisection on the tail (60 halvings: below 1e-15), each tail ``trials + 1`` terms:
@@ -24,7 +26,7 @@ import math
 import numpy as np
 
 __all__ = ["log_comb", "high_count", "binomial_tail", "tail_at_least", "successes_of",
-           "clopper_pearson", "bonferroni", "check_level"]
+           "clopper_pearson", "bonferroni", "check_level", "expected_attempts"]
 
 _HALVINGS = 60
 
@@ -124,3 +126,9 @@ def bonferroni(confidence: float, steps: int) -> float:
     """The per-item level at which ``steps`` statements hold together with probability at least
     ``confidence`` (the union bound): ``1 - (1 - confidence) / steps`` (``steps`` < 1 counts 1)."""
     return 1.0 - (1.0 - check_level(confidence)) / max(1, int(steps))
+
+
+def expected_attempts(score: float) -> float:
+    """The expected attempts of a step of score ``r`` retried until it succeeds, ``1/r`` (the
+    mean of a geometric distribution); infinite for a score of 0 (it never succeeds)."""
+    return 1.0 / score if score > 0.0 else math.inf

@@ -42,3 +42,11 @@ def test_high_count_bonferroni_and_levels():
     for bad in (0.0, 1.5, -1):
         with pytest.raises(ValueError):
             check_level(bad)
+
+
+def test_expected_attempts_of_a_retried_step():
+    from rap.stats import expected_attempts
+
+    assert (expected_attempts(1.0), expected_attempts(0.5), expected_attempts(0.8)) == (1.0, 2.0,
+                                                                                       1.25)
+    assert expected_attempts(0.0) == math.inf  # never succeeds

@@ -8,6 +8,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 from pathlib import Path
 
 from rap.errors import InputError
@@ -131,8 +132,11 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
     console.print(line)
     if result.expected_failures is not None and result.steps:  # beside R: where it fails
         weak = ", ".join(f"{i} ({result.steps[i - 1].score:.3f})" for i in result.weakest_steps())
+        tries = result.expected_attempts  # retrying a failed step: the sum of 1/r
         console.print(f"expected failed steps: {result.expected_failures:.2f} of "
-                      f"{len(result.steps)}" + (f"; weakest: step {weak}" if weak else ""))
+                      f"{len(result.steps)}; expected attempts with retries: "
+                      + (f"{tries:.2f}" if math.isfinite(tries) else "unbounded (a step scores 0)")
+                      + (f"; weakest: step {weak}" if weak else ""))
     if st.get("constraints"):
         from rap.plan.cell.constraints import CellConstraints
 

@@ -6,6 +6,10 @@ dead end 0; ties to the first candidate in the problem's order, ``argmax_first``
 
 * ``dp_choice(graph, score_of)``: every subassembly, smallest first, with every score given
   (the optimum's DP over simulated scores); ``dp_tree`` the tree its choice picks. O(operations).
+  ``objective="attempts"`` minimises instead the expected number of attempts when a failed step
+  is retried until it succeeds, ``best(S) = min over candidates of 1/r(op) + best(M) + best(F)``
+  (``best`` of a single part 0; an operation scoring 0 is infinite, a dead end; ties to the
+  first minimising candidate), additive over the tree as the product is multiplicative.
 * ``dp_choice_bounded(graph, scores_of, whole)``: the same choice by branch and bound, asking for
   scores only where they can matter (the search's DP over predicted scores; below).
 * ``max_value(graph, scores_of, whole)``: the best value alone, ties pruned (the search's bound).
@@ -43,8 +47,14 @@ import math
 from typing import Callable, Sequence
 
 from rap.plan.graph import Graph, Tree
+from rap.stats import expected_attempts
 
-__all__ = ["dp_choice", "dp_tree", "dp_choice_bounded", "max_value", "argmax_first", "SLACK"]
+__all__ = ["dp_choice", "dp_tree", "dp_choice_bounded", "max_value", "argmax_first", "SLACK",
+           "OBJECTIVES"]
+
+#: what ``dp_choice`` optimises: the product of scores (R, maximised) or the expected attempts
+#: (the sum of 1/r, minimised); the first is the default everywhere
+OBJECTIVES = ("robustness", "attempts")
 
 SLACK = 1.0 - 1e-9  # prune only below (1 - 1e-9) x the bar: rounding never hides a tie
 
@@ -58,11 +68,18 @@ def argmax_first(values: Sequence[float]) -> int:
     return idx
 
 
-def dp_choice(graph: Graph, score_of: dict[frozenset, Sequence[float]]) -> tuple[dict, dict]:
+def dp_choice(graph: Graph, score_of: dict[frozenset, Sequence[float]],
+              objective: str = "robustness") -> tuple[dict, dict]:
     """``best(S) = max over candidates of r(op) * best(M) * best(F)`` (``best`` of a single part:
     1; of a dead end: 0) for every subassembly of ``graph``, smallest first; ``arg[S]`` the index
     of the first maximising candidate. ``score_of[S]``: the scores of ``graph[S]`` in order.
-    O(operations)."""
+    ``objective="attempts"``: ``best(S) = min of 1/r(op) + best(M) + best(F)`` instead (a single
+    part 0; a dead end or a score of 0 infinite; the first minimising candidate; module doc).
+    ``ValueError`` for another objective. O(operations)."""
+    if objective == "attempts":
+        return _dp_attempts(graph, score_of)
+    if objective != "robustness":
+        raise ValueError(f"objective {objective!r}: choose one of {', '.join(OBJECTIVES)}")
     best: dict[frozenset, float] = {}
     arg: dict[frozenset, int] = {}
 
@@ -75,6 +92,25 @@ def dp_choice(graph: Graph, score_of: dict[frozenset, Sequence[float]]) -> tuple
             best[s] = 0.0
             continue
         i = argmax_first(vals)
+        best[s], arg[s] = vals[i], i
+    return best, arg
+
+
+def _dp_attempts(graph: Graph, score_of: dict[frozenset, Sequence[float]]) -> tuple[dict, dict]:
+    """``dp_choice`` for the expected attempts: the sum of ``1/r`` minimised (module doc)."""
+    best: dict[frozenset, float] = {}
+    arg: dict[frozenset, int] = {}
+
+    def b(x):
+        return best.get(x, math.inf) if len(x) >= 2 else 0.0
+
+    for s in sorted(graph, key=len):
+        vals = [expected_attempts(r) + b(op.moving) + b(op.fixed)
+                for op, r in zip(graph[s], score_of[s])]
+        i = argmax_first([-v for v in vals])
+        if not vals or vals[i] == math.inf:
+            best[s] = math.inf  # a dead end: no sequence with every step possible
+            continue
         best[s], arg[s] = vals[i], i
     return best, arg
 

@@ -58,6 +58,15 @@ def test_the_json_states_units_intervals_reasons_and_robot_moves(planned):
         assert "mm" in s["reason"] or "°" in s["reason"]
 
 
+def test_the_json_and_the_table_weigh_failures_and_attempts_beside_r(planned):
+    p, doc, _, _ = planned
+    scores = [s["score"] for s in doc["steps"]]
+    assert doc["expected_failures"] == pytest.approx(sum(1 - r for r in scores))
+    assert doc["expected_attempts"] == pytest.approx(sum(1 / r for r in scores))
+    assert (f"expected failed steps: {doc['expected_failures']:.2f} of 2; expected attempts "
+            f"with retries: {doc['expected_attempts']:.2f}") in p.stdout
+
+
 def test_the_csv_has_one_row_a_step_and_agrees_with_the_json(planned):
     _, doc, _, csv = planned
     table = pd.read_csv(csv)

@@ -374,6 +374,7 @@ def test_an_example_is_one_click_and_planned_as_a_dropped_file(page, service, tm
     assert steps and page.is_visible("#story-section")
     assert page.inner_text("#plan-status").startswith("rap plan of hexagon: robustness R = ")
     assert "expected failed steps" in page.inner_text("#plan-status")  # beside R (issue 37)
+    assert "expected attempts with retries" in page.inner_text("#plan-status")
     assert check_plan(asm, [PlanStep.from_json(st) for st in steps]) == []
     page.screenshot(path=str(tmp_path / "page-example.png"), full_page=True)
 

@@ -23,12 +23,14 @@ README.md ("Plan files").
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Sequence
 
 from rap.operation import Operation
 from rap.plan.interlocked import interlocked_message
+from rap.stats import expected_attempts
 
 __all__ = ["PlanStatus", "PlanStep", "PlanResult", "RobotMove", "SOURCES", "FORMAT",
            "is_assembly_order"]
@@ -45,6 +47,11 @@ class PlanStatus(Enum):
     FOUND = "found"
     INFEASIBLE = "infeasible"
     BUDGET_SPENT = "budget spent"
+
+
+def _finite(x: float | None) -> float | None:
+    """``x``, or None where it is infinite (JSON has no infinity)."""
+    return None if x is None or math.isinf(x) else x
 
 
 def _pair(v) -> tuple[float, float]:
@@ -243,6 +250,16 @@ class PlanResult:
             return None if self.steps else 0.0
         return float(sum(1.0 - s.score for s in self.steps))  # type: ignore[operator]
 
+    @property
+    def expected_attempts(self) -> float | None:
+        """The expected number of attempts when a failed step is retried until it succeeds,
+        ``sum(1/r)`` over the steps (at least the number of steps; ``rap.stats``):
+        infinite when a step scores 0 (it never succeeds; the JSON writes null), None when a
+        score is unknown, 0 for a plan with no step."""
+        if not self.steps or any(s.score is None for s in self.steps):
+            return None if self.steps else 0.0
+        return float(sum(expected_attempts(s.score) for s in self.steps))  # type: ignore[arg-type]
+
     def weakest_steps(self, k: int = WEAKEST) -> list[int]:
         """The numbers (1-based, assembly order) of the ``k`` steps of lowest score, weakest
         first (ties: the earlier step); only steps whose score is below 1."""
@@ -263,6 +280,7 @@ class PlanResult:
                     else list(self.robustness_interval),
                     "confidence_level": self.confidence_level, "trials": self.trials,
                     "expected_failures": self.expected_failures,
+                    "expected_attempts": _finite(self.expected_attempts),
                     "weakest_steps": self.weakest_steps(),
                     "steps": [s.to_json() for s in self.steps], "seconds": self.seconds,
                     **({} if self.bound is None else {"bound": dict(self.bound)}),

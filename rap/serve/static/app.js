@@ -474,8 +474,11 @@
       ? `, evaluated by the simulator in ${state.details.eval_seconds.toFixed(2)} s` : "";
     // beside R, what a long plan's reader can weigh: the expected failed steps and the weakest
     const weak = (doc.weakest_steps || []).map((i) => `${i} (${doc.steps[i - 1].score.toFixed(2)})`);
+    // and the expected attempts when a failed step is retried (null: a step scores 0)
+    const tries = typeof doc.expected_attempts === "number"
+      ? `, expected attempts with retries ${doc.expected_attempts.toFixed(2)}` : "";
     const failures = typeof doc.expected_failures === "number"
-      ? `; expected failed steps ${doc.expected_failures.toFixed(2)}` +
+      ? `; expected failed steps ${doc.expected_failures.toFixed(2)}${tries}` +
         (weak.length ? `, weakest: step ${weak.join(", ")}` : "") : "";
     $("plan-status").textContent = `${doc.method} plan of ${doc.assembly}: robustness R = ${r} ` +
       `over ${doc.steps.length} steps${failures}${cell}, planned in ${doc.seconds.toFixed(2)} s` +

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 
@@ -45,3 +46,24 @@ def test_the_plan_document_carries_its_format_and_older_ones_still_read():
     for bad in (3, "2", 0, True):
         with pytest.raises(ValueError, match="this rap-farm reads formats 1 to 2"):
             PlanResult.from_json({**doc, "format": bad})
+
+
+@pytest.mark.parametrize("scores,failures,attempts,written", [
+    ((0.5, 0.8), 0.7, 3.25, 3.25),
+    ((1.0, 0.0), 1.0, math.inf, None),  # a step that never succeeds: unbounded, null in JSON
+    ((0.5, None), None, None, None),  # a score unknown
+    ((), 0.0, 0.0, 0.0),
+])
+def test_expected_failures_and_attempts_beside_r(scores, failures, attempts, written):
+    from rap.plan.report.result import PlanResult, PlanStatus, PlanStep
+
+    steps = tuple(PlanStep((f"p{i}",), ("base",), (0.0, -1.0), "sim", r)
+                  for i, r in enumerate(scores))
+    result = PlanResult(PlanStatus.FOUND, "sim", "x", steps, None, 1.0)
+    assert result.expected_failures == (failures if failures is None
+                                        else pytest.approx(failures))
+    assert result.expected_attempts == attempts
+    doc = result.to_json()
+    assert doc["expected_attempts"] == written
+    assert list(doc).index("expected_attempts") == list(doc).index("expected_failures") + 1
+    json.dumps(doc, allow_nan=False)  # strict JSON: no Infinity
