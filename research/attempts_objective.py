@@ -1,9 +1,9 @@
 """Robustness or attempts: does the optimum change when it minimises the expected attempts?
 
-For each assembly, the optimal planner (every operation simulated, 100 trials) plans twice on the
-same scores: ``--objective robustness`` (the default: R, the product of the step scores,
-maximised) and ``--objective attempts`` (the expected attempts when a failed step is retried until
-it succeeds, the sum of 1/r, minimised). Printed per assembly: whether the plans differ, and R,
+For each assembly, every operation simulated (100 trials), the optimum twice over the same scores:
+R's (the optimal planner: the product of the step scores, maximised) and the expected attempts'
+(when a failed step is retried until it succeeds, the sum of 1/r, minimised:
+``rap.plan.dp.dp_choice(..., objective="attempts")``). Printed per assembly: whether the plans differ, and R,
 the expected attempts and the expected failed steps (the sum of 1 - r) of each.
 
     python -m research.attempts_objective                     # both sets below, a few minutes
@@ -35,18 +35,32 @@ SCALE_SEED = 11  # benchmarks/plan_scale.py's planning seed (--seed): the same s
 
 def compare(problem, simulator, cache) -> dict:
     """The optimum of each objective on ``problem``: objective -> {plan keys, R, attempts,
-    failures}, and ``same`` (the same steps)."""
+    failures}, and ``same`` (the same steps). R's optimum is the optimal planner's plan; the
+    attempts' optimum is ``rap.plan.dp.dp_choice(..., objective="attempts")`` over the same
+    simulated scores (read back from ``cache``)."""
     from rap.plan import plan
-    from rap.plan.dp import OBJECTIVES
+    from rap.plan.dp import dp_choice, dp_tree
+    from rap.plan.graph import reachable
+    from rap.plan.scoring.scorer import Scorer
+    from rap.stats import expected_attempts
 
-    out: dict = {}
-    for objective in OBJECTIVES:
-        r = plan(problem, "optimal", simulator=simulator, cache=cache, objective=objective)
-        if not r.found:
-            return {"status": r.message}
-        out[objective] = {"plan": [problem.key(s.to_operation()) for s in r.steps],
-                          "R": r.robustness, "attempts": r.expected_attempts,
-                          "failures": r.expected_failures, "steps": len(r.steps)}
+    r = plan(problem, "optimal", simulator=simulator, cache=cache)
+    if not r.found:
+        return {"status": r.message}
+    graph = reachable(problem)
+    flat = [op for c in graph.values() for op in c]
+    scores = iter(Scorer(simulator, None, cache).scores(problem, flat))  # cache hits
+    score_of = {s: [next(scores) for _ in c] for s, c in graph.items()}
+    _, arg = dp_choice(graph, score_of, objective="attempts")
+    tree = dp_tree(graph, arg, problem.whole)
+    tries = [score_of[s][i] for s, (i, _) in tree.items()]
+    out: dict = {
+        "robustness": {"plan": sorted(problem.key(s.to_operation()) for s in r.steps),
+                       "R": r.robustness, "attempts": r.expected_attempts,
+                       "failures": r.expected_failures, "steps": len(r.steps)},
+        "attempts": {"plan": sorted(problem.key(op) for _, op in tree.values()),
+                     "R": math.prod(tries), "attempts": sum(map(expected_attempts, tries)),
+                     "failures": sum(1.0 - x for x in tries), "steps": len(tries)}}
     out["same"] = out["robustness"]["plan"] == out["attempts"]["plan"]
     return out
 

@@ -130,14 +130,6 @@ class BadRequest(Exception):
         self.status, self.message = status, message
 
 
-def _option_schema(name: str) -> dict:
-    """A planner option's JSON schema in the API's: its type, and its choices where it has them."""
-    opt = service_options()[name][0]
-    if opt.kind is str:
-        return {"type": "string", "enum": list(opt.choices)}
-    return {"type": "integer" if opt.kind is int else "number"}
-
-
 def _reject_constant(name: str):
     raise ValueError(f"non-finite number {name} is not allowed")
 
@@ -159,11 +151,6 @@ def _planner_options(raw, method: str, max_simulations: int) -> dict:
         if opt is None:
             raise BadRequest(400, f"options.{key} applies to method "
                                   f"{' or '.join(accepted[key][1])}, not {method!r}")
-        if opt.kind is str:  # one of its choices
-            if not isinstance(value, str) or value not in opt.choices:
-                raise BadRequest(400, f"options.{key} {value!r}: must be {opt.describe()}")
-            out[key] = value
-            continue
         ok_type = (isinstance(value, int) if opt.kind is int
                    else isinstance(value, (int, Decimal))) and not isinstance(value, bool)
         if not ok_type:
@@ -341,10 +328,10 @@ PLAN_BODY_OPENAPI = {
                 "options": {"type": "object", "additionalProperties": False,
                             "description": "The method's options, as `rap-farm plan`'s "
                             "(search: simulations, trust, optimism, beam_width; rap: "
-                            "fallback_k, high_probability, fallback_optimism; optimal: "
-                            "objective), e.g. {\"simulations\": 200, "
+                            "fallback_k, high_probability, fallback_optimism), e.g. {\"simulations\": 200, "
                             "\"optimism\": 0.1}",
-                            "properties": {k: _option_schema(k) for k in PLANNER_OPTIONS}},
+                            "properties": {k: {"type": "integer" if kind is int else "number"}
+                                           for k, (_, kind, *_rest) in PLANNER_OPTIONS.items()}},
                 "constraints": {
                     "type": "object", "additionalProperties": False,
                     "description": "The robot cell's constraints, as `rap-farm plan`'s --base, "

@@ -35,23 +35,6 @@ def test_the_door_plans_an_assembly_a_problem_or_with_a_planner():
     assert [s.to_json() for s in a.steps] == [s.to_json() for s in b.steps]
 
 
-def test_the_optimums_objective_reaches_the_planner_through_the_door():
-    """``objective="attempts"``: the least sum of 1/r; on three squares in a row every sequence
-    has two steps, so the plan with the least ``expected_attempts`` among the door's plans."""
-    from rap.errors import ParameterError
-
-    params = SimParams(trials=10)
-    r = plan(memory(ROW3), "optimal", params=params, simulator=HashSim(), objective="robustness")
-    a = plan(memory(ROW3), "optimal", params=params, simulator=HashSim(), objective="attempts")
-    assert a.status is PlanStatus.FOUND and a.stats["objective"] == "attempts"
-    assert a.stats["predicted_attempts"] == pytest.approx(a.expected_attempts)
-    assert r.stats["predicted_robustness"] == pytest.approx(r.robustness)
-    assert a.expected_attempts <= r.expected_attempts and a.robustness <= r.robustness
-    with pytest.raises(ParameterError, match="^objective 'fastest': choose one of robustness, "
-                                             "attempts$"):
-        plan(memory(ROW3), "optimal", simulator=HashSim(), objective="fastest")
-
-
 def test_a_missing_model_is_one_line():
     from rap.errors import InputError
 

@@ -32,14 +32,11 @@ def test_the_shrink_keeps_only_what_locks():
     assert minimal_interlocked("xy", lambda s: False) == frozenset("xy")  # not interlocked: as is
 
 
-@pytest.mark.parametrize("method", ["search", "rap", "sim", "optimal", "optimal-attempts",
-                                    "random"])
+@pytest.mark.parametrize("method", ["search", "rap", "sim", "optimal", "random"])
 def test_every_method_names_a_minimal_verified_interlock(method):
     problem = PlanningProblem(memory(FRAMED_HOLE), PARAMS)
     scorer = Scorer(HashSim(), TableCnn(hash_score), ScoreCache())
-    planner = (make_planner(method, samples=3) if method == "random"
-               else make_planner("optimal", objective="attempts") if method == "optimal-attempts"
-               else make_planner(method))
+    planner = make_planner(method, samples=3) if method == "random" else make_planner(method)
     result = planner.solve(problem, scorer)
     assert result.status is PlanStatus.INFEASIBLE
     named = result.interlocked

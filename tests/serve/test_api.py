@@ -37,8 +37,6 @@ def test_planner_options_are_read_for_their_method():
             "options": {"fallback_k": 2, "high_probability": 0.8}}
     assert parse_plan_request(json.dumps(body).encode())[3] == {"fallback_k": 2,
                                                                "high_probability": 0.8}
-    body = {"assembly": SQUARES, "method": "optimal", "options": {"objective": "attempts"}}
-    assert parse_plan_request(json.dumps(body).encode())[3] == {"objective": "attempts"}
 
 
 def _with_options(options, method="search"):
@@ -57,10 +55,6 @@ def _with_options(options, method="search"):
     (_with_options({"trust": 0}), 400, "must lie in (0.0, 1.0]"),
     (_with_options({"beam_width": 0}), 400, "must be >= 1"),
     (_with_options({"simulations": 2001}), 413, "at most 2000"),
-    (_with_options({"objective": "speed"}, "optimal"), 400,
-     "options.objective 'speed': must be one of robustness, attempts"),
-    (_with_options({"objective": 1}, "optimal"), 400, "must be one of robustness, attempts"),
-    (_with_options({"objective": "attempts"}), 400, "options.objective applies to method optimal"),
 ])
 def test_bad_planner_options_are_one_line(body, status, needle):
     with pytest.raises(BadRequest) as exc:

@@ -6,27 +6,17 @@ subassembly and every operation visited once (one simulator batch for the whole 
 the paper's exhaustive search over every sequence (``stats["exhaustive_sequences"]`` counts the
 assembly trees it would enumerate). The reference the other planners are measured against; its
 cost is every operation's simulation. No ray, no torch.
-
-``objective`` (``--objective``): ``robustness`` (the default) maximises R, the probability that
-the whole plan succeeds with no step retried; ``attempts`` minimises the expected number of
-attempts when a failed step is retried until it succeeds, the sum of ``1/r`` over the steps
-(``dp_choice(..., objective="attempts")``). The default stays R: it is the paper's objective and
-what every other planner, bound and figure measures, and on 19 measured assemblies of 7-25 parts
-the two objectives chose the same plan every time (research/README.md, "Robustness or
-attempts"). ``search`` keeps the product: its conformal bounds and its branch and bound are
-bounds on a product of scores in [0, 1], and no measured plan would change.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar
 
-from rap.plan.dp import OBJECTIVES, dp_choice, dp_tree
+from rap.plan.dp import dp_choice, dp_tree
 from rap.plan.graph import Interlocked, assembly_order, dead_end, reachable
 from rap.plan.planners.base import Planner
-from rap.plan.planners.options import PlannerOptions, option
+from rap.plan.planners.options import PlannerOptions
 from rap.plan.report.result import PlanStep
 
 __all__ = ["OptimalPlanner", "OptimalOptions"]
@@ -37,12 +27,6 @@ class OptimalOptions(PlannerOptions):
     """The most robust sequence by dynamic programming over the simulator's scores."""
 
     method: ClassVar[str] = "optimal"
-
-    objective: str = option(
-        str, OBJECTIVES[0], choices=OBJECTIVES,
-        help="Method {method}: what the optimum optimises: robustness (R, the product of the "
-             "step scores, maximised) or attempts (the expected attempts when a failed step is "
-             "retried, the sum of 1/r over the steps, minimised)")
 
 
 class OptimalPlanner(Planner):
@@ -59,8 +43,8 @@ class OptimalPlanner(Planner):
         flat = [op for c in graph.values() for op in c]
         scores = iter(scorer.scores(problem, flat))
         score_of = {s: [next(scores) for _ in c] for s, c in graph.items()}
-        best, arg = dp_choice(graph, score_of, self.objective)
-        if best[whole] in (0.0, math.inf):  # no sequence whose steps can all succeed
+        best, arg = dp_choice(graph, score_of)
+        if best[whole] <= 0.0:
             raise Interlocked(dead_end(graph, whole))
         trees: dict[frozenset, int] = {}
 
@@ -77,9 +61,7 @@ class OptimalPlanner(Planner):
                      exhaustive_sequences=n_ex,
                      exhaustive_step_evaluations=n_ex * (len(whole) - 1),
                      dp_speedup=n_ex * (len(whole) - 1) / max(1, terms),
-                     objective=self.objective,
-                     **({"predicted_robustness": best[whole]} if self.objective == "robustness"
-                        else {"predicted_attempts": best[whole]}))
+                     predicted_robustness=best[whole])
         return assembly_order(choice, whole)
 
 

@@ -12,14 +12,12 @@ OMPL's planners declare their parameters once (``declareParam``) and their capab
         simulations: int = option(int, 0, low=0, code="s", code_name="N",
                                   help="Method {method}: simulations to spend while planning")
 
-Each ``option`` states its type (``int`` or ``float``; or ``str`` with its ``choices``, e.g.
-``option(str, "robustness", choices=("robustness", "attempts"), help=...)``), default, range
-(``low``, ``high``; ``low_open``: ``low`` itself excluded), help text (a template: ``{method}``
-and the names of the method's other options in braces, which a reader replaces by its own names
-for them, e.g. flags), and its letter in experiment method names (``code``, with ``code_name`` the
-placeholder in messages; ``percent``: written as an integer percentage, ``p90`` for 0.9).
-``cli``/``service``: whether ``rap-farm plan`` has a flag for it and the planning service accepts
-it.
+Each ``option`` states its type (``int`` or ``float``), default, range (``low``, ``high``;
+``low_open``: ``low`` itself excluded), help text (a template: ``{method}`` and the names of the
+method's other options in braces, which a reader replaces by its own names for them, e.g. flags),
+and its letter in experiment method names (``code``, with ``code_name`` the placeholder in
+messages; ``percent``: written as an integer percentage, ``p90`` for 0.9). ``cli``/``service``:
+whether ``rap-farm plan`` has a flag for it and the planning service accepts it.
 
 Everything that reads options reads them here:
 
@@ -51,7 +49,7 @@ class Option:
     """One option of a planning method (module doc). ``name`` is the planner's keyword."""
 
     name: str
-    kind: type  # int, float, or str (then ``choices``)
+    kind: type  # int or float
     default: Any
     low: float | None = None
     high: float | None = None
@@ -64,12 +62,9 @@ class Option:
     percent: bool = False  # the table name writes 100 x the value, as an integer
     cli: bool = True  # rap-farm plan has a flag for it
     service: bool = True  # the planning service accepts it
-    choices: tuple[str, ...] = ()  # the values of a ``str`` option
 
     def describe(self) -> str:
-        """What a valid value is: ``a score in (0, 1]``, ``an integer >= 1``, ``one of a, b``."""
-        if self.kind is str:
-            return f"one of {', '.join(self.choices)}"
+        """What a valid value is: ``a score in (0, 1]``, ``an integer >= 1``."""
         noun = self.noun or ("an integer" if self.kind is int else "a number")
         if self.high is not None:
             return f"{noun} in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}]"
@@ -82,10 +77,6 @@ class Option:
         ``value`` is valid: None where the default is None, else of the option's type (an int
         where it is ``int``) within its range."""
         if value is None and self.default is None:
-            return
-        if self.kind is str:
-            if not isinstance(value, str) or value not in self.choices:
-                raise ParameterError(self.name, value, f"choose {self.describe()}")
             return
         number = isinstance(value, numbers.Real) and not isinstance(value, bool)
         if (not number or (self.kind is int and not isinstance(value, numbers.Integral))
