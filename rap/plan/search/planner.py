@@ -13,7 +13,9 @@ which is spent only where it decides. Its options and their measured defaults ar
    reachable subassemblies by branch and bound (``rap.plan.dp.dp_choice_bounded``: a
    subassembly's candidates are scored only when they can still matter). An interlocked
    subassembly is a dead end (value 0), not a failure. **Beam** beyond it (e.g. 30 or 100 parts):
-   ``rap.plan.search.beam``; greedy's plan joins the final beam.
+   ``rap.plan.search.beam``; greedy's plan joins the final beam, and after the refine (3) the
+   chosen plan's runs of one-part steps are re-ordered ``window`` steps at a time with what is
+   left of the budget (``rap.plan.search.windows``).
 3. **Refine** (``_refine``, both modes): the chosen sequence's operations neither simulated nor
    trusted (predicted at ``trust`` or more) are simulated, their scores replace the predictions
    and the choice is made again, until it is settled or the budget is spent: ``simulations``, or

@@ -99,3 +99,21 @@ def test_the_bound_is_computed_outside_the_callers_spent_budget():
     r = LateBudget().solve(problem, s)
     assert r.status is PlanStatus.FOUND and r.bound is not None
     assert r.bound["robustness_upper"] >= r.robustness
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_with_an_exhaustive_budget_greedys_start_changes_nothing_the_exact_search_finds(name):
+    """Branch and bound on trivial bounds with every simulation it wants: the search finds the
+    optimum with greedy's start exactly as without it (the start only adds what it knows)."""
+    from rap.model.calibration import ScoreBounds
+    from rap.plan.planners.optimal import OptimalPlanner
+
+    problem = PlanningProblem(six(name), PARAMS)
+    best = OptimalPlanner().solve(problem, scorer(None))
+    plans = [SearchPlanner(bounds=ScoreBounds.trivial(), upper=1.0, simulations=10 ** 6,
+                           improve=10 ** 6, greedy_from=start).solve(problem, scorer())
+             for start in (2, 10 ** 6)]
+    for found in plans:
+        assert check_plan(problem.assembly, found.steps) == []
+        assert found.robustness == pytest.approx(best.robustness, rel=1e-12)
+    assert "greedy_steps" in plans[0].stats and "greedy_steps" not in plans[1].stats
