@@ -24,7 +24,7 @@ from rap.plan.planners.base import HIGH_PROBABILITY, Planner
 from rap.plan.planners.options import PlannerOptions, option
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanStep
-from rap.plan.scoring.scorer import Scorer
+from rap.plan.scoring.scorer import BudgetSpent, Scorer
 
 __all__ = ["SimPlanner", "RapPlanner", "SimOptions", "RapOptions", "PAPER_RAP",
            "RAP_HIGH_PROBABILITY", "RAP_FALLBACK_OPTIMISM", "FALLBACK_ROUND"]
@@ -75,7 +75,12 @@ class SimOptions(PlannerOptions):
 
 
 class _Greedy(Planner):
-    """Greedy assembly-by-disassembly, one level of open subassemblies at a time."""
+    """Greedy assembly-by-disassembly, one level of open subassemblies at a time. ``finish``
+    (None: off): when a level's choice spends the scorer's budget (``BudgetSpent``), ``finish(
+    problem, scorer, cands, stats)`` chooses that level and every later one instead (an anytime
+    greedy: a complete plan whenever the budget ends; ``stats["finished_levels"]``)."""
+
+    finish = None
 
     @abc.abstractmethod
     def _select(self, problem: PlanningProblem, scorer: Scorer,
@@ -94,7 +99,17 @@ class _Greedy(Planner):
                 if not c:
                     raise Interlocked(s)
                 cands.append(c)
-            chosen = self._select(problem, scorer, cands, stats)
+            if "finished_levels" in stats:
+                chosen = self.finish(problem, scorer, cands, stats)
+                stats["finished_levels"] += 1
+            else:
+                try:
+                    chosen = self._select(problem, scorer, cands, stats)
+                except BudgetSpent:
+                    if self.finish is None:
+                        raise
+                    chosen = self.finish(problem, scorer, cands, stats)
+                    stats["finished_levels"] = 1
             stats["levels"] += 1
             stats["decisions"] += len(open_)
             nxt = []

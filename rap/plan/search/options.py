@@ -9,7 +9,8 @@ from typing import ClassVar
 
 from rap.plan.planners.options import PlannerOptions, option
 
-__all__ = ["SearchOptions", "GREEDY_FROM", "IMPROVE", "GREEDY_SHARE", "WINDOW", "SEARCH_SIMULATIONS", "SEARCH_UPPER", "SEARCH_GAP", "DEFAULT_BEAM",
+__all__ = ["SearchOptions", "GREEDY_FROM", "IMPROVE", "GREEDY_SHARE", "WINDOW",
+           "SEARCH_SIMULATIONS", "SEARCH_UPPER", "SEARCH_GAP", "DEFAULT_BEAM",
            "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE", "BOUND_ROUND"]
 
 DEFAULT_BEAM = 8
@@ -39,9 +40,11 @@ SEARCH_GAP = 0.0
 # the same plans, benchmarks/plan_scale.py up to 12 parts).
 GREEDY_FROM = 13
 IMPROVE = 1.0
-#: with a ``time_limit``, greedy's start may take at most this share of it; past it the search
-#: plans without a first plan (the beam by the model's scores, then simulations while time is left)
-GREEDY_SHARE = 0.5
+#: with a ``time_limit``, greedy's start may simulate for at most this share of it; past it, its
+#: levels left are chosen by the model alone (an anytime greedy), and the search improves what is
+#: left of the time (benchmarks/time_limit.py: with half, greedy's 12.7 s on grid 49 was cut at a
+#: 20 s limit and the model's plan was 0.18 of greedy's R)
+GREEDY_SHARE = 0.8
 #: beyond the exact budget, the chosen plan's runs of one-part steps are re-ordered WINDOW steps at
 #: a time (rap.plan.search.windows; research/window_reorder.py: gains of 1.12-1.25 on greedy's
 #: chains at 30-49 parts with 4)

@@ -378,7 +378,8 @@ class SearchPlanner(Planner):
                             incumbent_of)
         left = stats["search_budget"] - stats["refine_simulations"]
         if self.window and left > 0 and len(plan) == len(problem.whole) - 1:
-            plan = polish(problem, scores, plan, self.window, left, stats)
+            deadline = (scores.scorer.started + self.time_limit) if self.time_limit else None
+            plan = polish(problem, scores, plan, self.window, left, stats, deadline)
             run.beam.append(list(plan.values()))  # the bound's scope covers the polished plan
         return plan
 

@@ -13,7 +13,8 @@ subassembly, and everything below it, stays as it was, so the plan's robustness 
 the window's gain.
 
 Windows are taken top down, the plan's first steps first; ``budget`` fresh simulations in all (a
-window that would pass it, and every later one, is left as it is). A window whose steps are not
+window that would pass it, and every later one, is left as it is), and none is started past a
+``deadline`` (the search's time limit). A window whose steps are not
 all simulated is left as it is. Stats: ``windows`` (re-ordered / visited), ``window_simulations``,
 ``window_gain`` (the product of the gains).
 
@@ -26,6 +27,8 @@ predictions, and ``2 ** width`` candidate lists (memoised by the problem). No ra
 """
 
 from __future__ import annotations
+
+import time
 
 from rap.plan.problem import PlanningProblem
 
@@ -62,12 +65,17 @@ def runs(plan: dict, whole: frozenset) -> list[list[frozenset]]:
 
 
 def polish(problem: PlanningProblem, scores, plan: dict, width: int, budget: int,
-           stats: dict) -> dict:
-    """``plan`` (subassembly -> operation) with its runs' windows re-ordered (module doc)."""
+           stats: dict, deadline: float | None = None) -> dict:
+    """``plan`` (subassembly -> operation) with its runs' windows re-ordered (module doc); no
+    window is started after ``deadline`` (a ``time.perf_counter()`` value; None: none)."""
     plan = dict(plan)
     spent, changed, visited, gain = 0, 0, 0, 1.0
     for run in runs(plan, problem.whole):
         for i in range(0, len(run) - 1, width):
+            if deadline is not None and time.perf_counter() > deadline:
+                stats.update(windows=f"{changed}/{visited}", window_simulations=spent,
+                             window_gain=gain, windows_stopped="time")
+                return plan
             start, end = run[i], run[min(i + width, len(run) - 1)]
             old = [plan[s] for s in run[i:min(i + width, len(run) - 1)]]
             if not all(scores.is_simulated(op) for op in old):
