@@ -140,7 +140,7 @@ def plan_command(
     confidence: float = _method_flag("confidence"), gap: float = _method_flag("gap"),
     time_limit: float = _method_flag("time_limit"), beam_width: int = _method_flag("beam_width"),
     greedy_from: int = _method_flag("greedy_from"), improve: float = _method_flag("improve"),
-    window: int = _method_flag("window"),
+    beam_from: int = _method_flag("beam_from"), window: int = _method_flag("window"),
     # the robot cell's constraints (rap.plan.cell.constraints; docs/PLANNING.md, Robot-cell constraints)
     base: str = BASE, linear: bool = LINEAR, directions: list[str] = DIRECTIONS,
     gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,
@@ -158,7 +158,8 @@ def plan_command(
                    fallback_optimism=fallback_optimism, beam_width=beam_width,
                    simulations=simulations, trust=trust, optimism=optimism, upper=upper,
                    confidence=confidence, gap=gap, time_limit=time_limit,
-                   greedy_from=greedy_from, improve=improve, window=window)  # None: not given
+                   greedy_from=greedy_from, improve=improve, beam_from=beam_from,
+                   window=window)  # None: not given
     _check_request(method, space, options, out, picture, err)
     cell = cell_constraints(base, linear, directions, gravity, friction, layers)
     _check_suffix(csv, "--csv", (".csv",))

@@ -115,7 +115,8 @@ def test_search_defaults_and_the_previous_default_round_trip():
 def test_the_service_takes_the_declared_options_default_method_first():
     accepted = service_options()
     assert list(accepted) == ["simulations", "trust", "optimism", "upper", "confidence", "gap",
-                              "time_limit", "greedy_from", "improve", "window", "beam_width",
+                              "time_limit", "greedy_from", "improve", "beam_from", "window",
+                              "beam_width",
                               "fallback_k", "high_probability", "fallback_optimism"]  # not samples, b
     assert accepted["trust"][1] == ("search",) and accepted["fallback_k"][1] == ("rap",)
     method, opt = option_named("optimism")

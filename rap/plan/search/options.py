@@ -9,7 +9,7 @@ from typing import ClassVar
 
 from rap.plan.planners.options import PlannerOptions, option
 
-__all__ = ["SearchOptions", "GREEDY_FROM", "IMPROVE", "GREEDY_SHARE", "WINDOW",
+__all__ = ["SearchOptions", "GREEDY_FROM", "IMPROVE", "GREEDY_SHARE", "WINDOW", "BEAM_FROM",
            "SEARCH_SIMULATIONS", "SEARCH_UPPER", "SEARCH_GAP", "DEFAULT_BEAM",
            "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE", "BOUND_ROUND"]
 
@@ -49,6 +49,11 @@ GREEDY_SHARE = 0.8
 #: a time (rap.plan.search.windows; research/window_reorder.py: gains of 1.12-1.25 on greedy's
 #: chains at 30-49 parts with 4)
 WINDOW = 4
+#: from BEAM_FROM parts the search goes to the beam without walking the graph to its budget: on
+#: benchmarks/plan_scale.py's 20 assemblies of 30-100 parts (two seeds) every graph had more than
+#: DEFAULT_MAX_OPERATIONS operations, and the walk that finds it out took 1-4 s (wall 44: 2.7 s of
+#: 18.7); a narrow graph (a stack) is all but exhausted by the beam anyway
+BEAM_FROM = 30
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,11 @@ class SearchOptions(PlannerOptions):
         float, IMPROVE, low=0.0, code="i", code_name="X", percent=True,
         help="Method {method}: after greedy's start, simulations to spend improving its plan, as "
              "a multiple of greedy's own (at most {simulations})")
+    beam_from: int = option(
+        int, BEAM_FROM, low=2, code="e", code_name="N",
+        help="Method {method}: from N parts on, the beam without walking the graph (the walk to "
+             "the exact search's budget takes 1-4 s there and finds every measured graph too "
+             "large)")
     window: int = option(
         int, WINDOW, low=0, high=8, code="r", code_name="K",
         help="Method {method}, beyond the exact budget: re-order the chosen plan's one-part steps "

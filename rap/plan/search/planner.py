@@ -9,7 +9,8 @@ which is spent only where it decides. Its options and their measured defaults ar
    simulator-only greedy's plan, fully simulated, with every candidate greedy simulated known to
    the search; the result is never worse than it (stats: ``greedy_robustness``,
    ``greedy_seconds``, ``greedy_simulations``).
-2. **Exact** (at most ``max_operations`` candidate operations): the optimum's DP over the
+2. **Exact** (at most ``max_operations`` candidate operations, below ``beam_from`` parts): the
+   optimum's DP over the
    reachable subassemblies by branch and bound (``rap.plan.dp.dp_choice_bounded``: a
    subassembly's candidates are scored only when they can still matter). An interlocked
    subassembly is a dead end (value 0), not a failure. **Beam** beyond it (e.g. 30 or 100 parts):
@@ -209,10 +210,12 @@ class SearchPlanner(Planner):
                               bonferroni(self.confidence, len(whole) - 1),
                               self.optimism if raise_ else 0.0, self.upper if raise_ else 0.0,
                               self.trust)
-        try:
-            graph = reachable(problem, self.max_operations)
-        except TooLarge:
-            graph = None
+        graph = None
+        if len(whole) < self.beam_from:  # else the walk, 1-4 s, would only find it too large
+            try:
+                graph = reachable(problem, self.max_operations)
+            except TooLarge:
+                pass
         run = _Run(scores, graph)
         # greedy's plan first (module doc, 1-2): from ``greedy_from`` parts, and always for the beam
         first = (greedy_start(problem, scorer, scores, stats, self.time_limit)

@@ -75,5 +75,7 @@ def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
     if finished:
         stats["greedy_by_model"] = len(finished)
     scores.add_simulated(known, known_scores)
+    # the model's steps are predicted for the search (one batch; simulated ones need none)
+    scores.predict([op for op in ops if not scores.is_simulated(op)])
     stats["greedy_known"] = len(scores.simulated)
     return tuple((op.moving | op.fixed, op) for op in ops)

@@ -213,3 +213,17 @@ def test_a_time_limit_stops_the_simulations_and_returns_the_best_known_plan():
     assert limited.stats["stopped"] == "time"
     assert limited.stats["refine_simulations"] < free.stats["refine_simulations"]
     assert SearchPlanner().time_limit == 0.0  # the shipped search: no limit
+
+
+def test_from_beam_from_parts_the_beam_plans_without_walking_the_graph(monkeypatch):
+    import rap.plan.search.planner as planner_module
+
+    problem = PlanningProblem(six("grid"), PARAMS)
+    walked = []
+    monkeypatch.setattr(planner_module, "reachable",
+                        lambda *a, **k: walked.append(1) or pytest.fail("walked the graph"))
+    r = SearchPlanner(beam_from=2).solve(problem, scorer(TableCnn(lambda op: 0.5,
+                                                                  score_fn=hash_score)))
+    assert r.status is PlanStatus.FOUND and r.stats["search"] == "beam" and not walked
+    assert check_plan(problem.assembly, r.steps) == []
+    assert SearchPlanner().beam_from == 30
