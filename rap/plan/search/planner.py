@@ -147,10 +147,10 @@ class SearchPlanner(Planner):
             self.time_limit and time.perf_counter() - scores.scorer.started > self.time_limit)
 
     def _budget(self, stats: dict) -> int:
-        """The refine loop's simulations: ``simulations``; after greedy's start, at most
+        """The refine loop's simulations: ``simulations``; after greedy's start (complete), at most
         ``improve`` times the simulations greedy's plan took (module doc, 3)."""
-        if "greedy_steps" not in stats:  # no greedy start, or greedy found no plan
-            return self.simulations
+        if "greedy_steps" not in stats or stats.get("greedy_by_model"):
+            return self.simulations  # no start, no plan, or one the time limit cut: the limit rules
         return min(self.simulations, math.ceil(self.improve * stats["greedy_simulations"]))
 
     def _free_bound(self, scores: SearchScores) -> bool:
