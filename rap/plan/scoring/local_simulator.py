@@ -12,8 +12,8 @@ batch then goes to them.
 
 The workers are a ``concurrent.futures.ProcessPoolExecutor`` over a fork context that keeps the
 processes it starts (``LocalSimulator.workers``), so that ``close()`` can stop workers still
-loading the simulator with public calls only (``Process.terminate``, then ``shutdown(wait=True)``;
-``terminate_workers`` on Python 3.14 and later).
+loading the simulator with public calls only (``Process.kill``, then ``shutdown(wait=True)``;
+``kill_workers`` on Python 3.14 and later).
 
 ``simulate_chunks(problem, chunks)``: the chunks of sequential tests (``research.variants.sequential``),
 each ``(op, index, trials)`` one run of ``trials`` trials from ``chunk_seed(problem.seed(op),
@@ -171,18 +171,21 @@ class LocalSimulator:
 
     def close(self) -> None:
         """Stop the worker processes (if any were started). Workers still loading the simulator
-        are terminated rather than waited for: they hold nothing that must be kept."""
+        are killed rather than waited for: they hold nothing that must be kept."""
         with self._lock:
             ex, self._executor = self._executor, None
             workers, self.workers = self.workers, []
         if ex is None:
             return
-        terminate = getattr(ex, "terminate_workers", None)  # Python >= 3.14
+        terminate = getattr(ex, "kill_workers", None)  # Python >= 3.14
         if terminate is not None:
             terminate()
             return
         for proc in workers:
-            proc.terminate()
+            # SIGKILL, not SIGTERM: a worker forked a moment ago may not have run its initializer
+            # yet and still carry the parent's SIGTERM handler; seen once to leave a worker alive
+            # and close() waiting on it for good (a test run)
+            proc.kill()
         # The executor's manager thread sees them gone and joins them (the same process objects):
         # waiting for it, rather than joining them here as well, leaves none that reads as alive
         # (two threads reaping one child race: waitpid's ECHILD).
