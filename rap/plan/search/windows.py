@@ -29,6 +29,7 @@ predictions, and ``2 ** width`` candidate lists (memoised by the problem). No ra
 from __future__ import annotations
 
 import time
+from itertools import combinations
 
 from rap.plan.problem import PlanningProblem
 
@@ -58,9 +59,8 @@ def runs(plan: dict, whole: frozenset) -> list[list[frozenset]]:
         seen.add(run[-1])
         if len(run) >= 3:
             out.append(run)
-        last = plan[run[-1]] if len(run[-1]) >= 2 else None
-        if last is not None and _one_part_step(last) is None:
-            stack += [last.moving, last.fixed]
+        last = plan[run[-1]]  # not a one-part step: both its sides are planned below it
+        stack += [last.moving, last.fixed]
     return out
 
 
@@ -150,7 +150,5 @@ def _dp(layers: dict, end: frozenset, start: frozenset, score) -> tuple[float, d
 
 def _subsets_removed(start: frozenset, parts: list, k: int):
     """``start`` less every ``k``-subset of ``parts``."""
-    from itertools import combinations
-
     for removed in combinations(parts, k):
         yield start - frozenset(removed)
