@@ -328,6 +328,15 @@ def _band(rows, lo, hi):
             and r["r_ratio"] is not None]
 
 
+def _ratios(band) -> tuple[str, str]:
+    """A band's time and R ratios to greedy, as printed: ``(time, R)``."""
+    ts = [r["time_ratio"] for r in band]
+    rs = [r["r_ratio"] for r in band]
+    return (f"time default/greedy {min(ts):.2f} to {max(ts):.2f} (geometric mean "
+            f"{_gmean(ts):.2f})",
+            f"R default/greedy geometric mean {_g(_gmean(rs))} ({min(rs):.3g} to {max(rs):.3g})")
+
+
 def summary(rows) -> list[str]:
     """The lines per target band (module doc)."""
     out = []
@@ -341,21 +350,15 @@ def summary(rows) -> list[str]:
                    f"time max {max(ts):.2f}, geometric mean {_gmean(ts):.2f}")
     mid = _band(rows, 18, 25)
     if mid:
-        ts = [r["time_ratio"] for r in mid]
-        rs = [r["r_ratio"] for r in mid]
-        out.append(f"18-25 parts ({len(mid)}): time default/greedy {min(ts):.2f} to {max(ts):.2f} "
-                   f"(geometric mean {_gmean(ts):.2f}); R default/greedy {min(rs):.3g} to "
-                   f"{max(rs):.3g} (geometric mean {_g(_gmean(rs))})")
+        times, rs = _ratios(mid)
+        out.append(f"18-25 parts ({len(mid)}): {times}; {rs}")
     big = _band(rows, 30, 100)
     if big:
-        ts = [r["time_ratio"] for r in big]
-        rs = [r["r_ratio"] for r in big]
+        times, rs = _ratios(big)
         ok = sum((r["default"]["robustness"] or 0.0) >= (r["sim"]["robustness"] or 0.0)
                  for r in big)
         out.append(f"30-100 parts ({len(big)}): default R >= greedy R on {ok} of {len(big)}; "
-                   f"R default/greedy geometric mean {_g(_gmean(rs))} (min {min(rs):.3g}); "
-                   f"time default/greedy {min(ts):.2f} to {max(ts):.2f} (geometric mean "
-                   f"{_gmean(ts):.2f})")
+                   f"{rs}; {times}")
     return out
 
 

@@ -62,7 +62,7 @@ from rap.plan.dp import SLACK, dp_choice_bounded, max_value
 from rap.plan.search.beam import beam_states, log_product
 from rap.plan.search.options import SearchOptions
 from rap.plan.search.scores import SearchScores, incumbent, report
-from rap.plan.search.start import greedy_start
+from rap.plan.search.start import Start, greedy_start
 from rap.plan.search.windows import polish
 from rap.plan.graph import Interlocked, TooLarge, assembly_order, dead_end, reachable
 from rap.plan.planners.base import Planner
@@ -146,12 +146,12 @@ class SearchPlanner(Planner):
         return spent >= budget or bool(
             self.time_limit and time.perf_counter() - scores.scorer.started > self.time_limit)
 
-    def _budget(self, stats: dict) -> int:
+    def _budget(self, start: Start | None) -> int:
         """The refine loop's simulations: ``simulations``; after greedy's start (complete), at most
         ``improve`` times the simulations greedy's plan took (module doc, 3)."""
-        if "greedy_steps" not in stats or stats.get("greedy_by_model"):
+        if start is None or not start.complete:
             return self.simulations  # no start, no plan, or one the time limit cut: the limit rules
-        return min(self.simulations, math.ceil(self.improve * stats["greedy_simulations"]))
+        return min(self.simulations, math.ceil(self.improve * start.simulations))
 
     def _free_bound(self, scores: SearchScores) -> bool:
         """Whether the choosing scores are the upper bounds themselves (the DP's value is V)."""
@@ -218,14 +218,15 @@ class SearchPlanner(Planner):
                 pass
         run = _Run(scores, graph)
         # greedy's plan first (module doc, 1-2): from ``greedy_from`` parts, and always for the beam
-        first = (greedy_start(problem, scorer, scores, stats, self.time_limit)
-                 if graph is None or len(whole) >= self.greedy_from else ())
+        start = (greedy_start(problem, scorer, scores, stats, self.time_limit)
+                 if graph is None or len(whole) >= self.greedy_from else None)
+        budget = self._budget(start)
         if graph is not None:
             stats["search"] = "exact"
-            trees = self._exact(graph, scores, whole, stats)
+            trees = self._exact(graph, scores, whole, stats, budget)
         else:
             stats["search"] = "beam"
-            trees = self._beam(problem, scores, stats, run, first)
+            trees = self._beam(problem, scores, stats, run, budget, start.sequence)
         _CURRENT.run = run
         steps = {}
         for sub, op in trees.items():
@@ -267,14 +268,16 @@ class SearchPlanner(Planner):
         return max_value(graph, scores_of, whole, scores.memo("high"))
 
     # -- the refine loop, shared by both modes --------------------------------------------------
-    def _refine(self, scores: SearchScores, stats: dict, choose, bound, incumbent_of) -> dict:
+    def _refine(self, scores: SearchScores, stats: dict, budget: int, choose, bound,
+                incumbent_of) -> dict:
         """Simulate where it decides until the choice settles, the bound stops it or the budget
         is spent (module doc, 3-5); returns the plan (subassembly -> operation).
+        ``budget``: the simulations it may spend (``_budget``).
 
         ``choose()``: ``(choice, value)``, the choice by the current scores and its DP value (or
         None); ``bound(value)``: ``V``; ``incumbent_of()``: ``(robustness, plan or None)`` of the
         best fully simulated sequence."""
-        spent, budget = 0, self._budget(stats)
+        spent = 0
         stats.update(search_budget=budget, refine_simulations=0)
         floor = None  # phase 2 (module doc, 5): phase 1's settled choice and its robustness
         while True:
@@ -312,7 +315,7 @@ class SearchPlanner(Planner):
             stats["refine_simulations"] = spent
 
     # -- exact ------------------------------------------------------------------------------------
-    def _exact(self, graph, scores: SearchScores, whole, stats) -> dict:
+    def _exact(self, graph, scores: SearchScores, whole, stats, budget: int) -> dict:
         stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
 
         def scores_of(s):  # predicted on the first visit, one CNN batch per subassembly
@@ -327,7 +330,7 @@ class SearchPlanner(Planner):
             return {sub: op for sub, (_, op) in tree.items()}, best
 
         plan = self._refine(
-            scores, stats, choose,
+            scores, stats, budget, choose,
             lambda best: best if self._free_bound(scores) else self._max_high(graph, scores, whole),
             lambda: incumbent(graph, scores, whole))
         if stats.get("stopped") not in ("budget", "time") or not stats["search_budget"]:
@@ -356,7 +359,7 @@ class SearchPlanner(Planner):
 
     # -- beam -------------------------------------------------------------------------------------
     def _beam(self, problem: PlanningProblem, scores: SearchScores, stats, run: _Run,
-              first: tuple = ()) -> dict:
+              budget: int, first: tuple = ()) -> dict:
         beam, rounds = beam_states(problem, scores, self.beam_width)
         stats.update(beam_rounds=rounds, beam_width=self.beam_width)
         if first and all(st[3] != first for st in beam):  # greedy's plan competes (module doc, 2)
@@ -377,9 +380,10 @@ class SearchPlanner(Planner):
                       for i, seq in enumerate(full))
             return got[0], dict(full[-got[1]])
 
-        plan = self._refine(scores, stats, choose, lambda _: self._beam_value(run, scores),
+        plan = self._refine(scores, stats, budget, choose,
+                            lambda _: self._beam_value(run, scores),
                             incumbent_of)
-        left = stats["search_budget"] - stats["refine_simulations"]
+        left = budget - stats["refine_simulations"]
         if self.window and left > 0 and len(plan) == len(problem.whole) - 1:
             deadline = (scores.scorer.started + self.time_limit) if self.time_limit else None
             plan = polish(problem, scores, plan, self.window, left, stats, deadline)

@@ -1,6 +1,6 @@
 """The search's first complete plan: simulator-only greedy's, with everything greedy simulated.
 
-``greedy_start(problem, scorer, scores, stats, time_limit)`` runs ``SimPlanner`` (every candidate
+``greedy_start(problem, scorer, scores, stats, time_limit)`` returns a ``Start``; it runs ``SimPlanner`` (every candidate
 of each subassembly on its way simulated, the best taken) and makes every score it simulated known
 to the search (``SearchScores.add_simulated``: those candidates are exact from then on). The
 search then only improves on that plan: it never returns a worse one (``rap.plan.search.planner``,
@@ -30,12 +30,24 @@ from rap.plan.report.result import PlanStep
 from rap.plan.scoring.scorer import BudgetSpent, Scorer
 from rap.plan.search.options import GREEDY_SHARE
 
-__all__ = ["greedy_start"]
+__all__ = ["Start", "greedy_start"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Start:
+    """Greedy's first plan for the search: ``sequence``, its ``(subassembly, operation)`` pairs
+    (``()``: none); ``simulations``, what greedy simulated; ``complete``, whether every step was
+    chosen by simulation (not cut by the time limit), so that its simulations can set the
+    search's budget (``rap.plan.search.planner``, module doc, 3)."""
+
+    sequence: tuple = ()
+    simulations: int = 0
+    complete: bool = False
 
 
 def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
-                 time_limit: float = 0.0) -> tuple:
-    """Greedy's sequence as ``(subassembly, operation)`` pairs (module doc), or ``()``."""
+                 time_limit: float = 0.0) -> Start:
+    """Greedy's first plan (module doc); its figures also go to ``stats``."""
     t = time.perf_counter()
     before = scorer.stats.sim_run
     saved = scorer.budget
@@ -66,7 +78,7 @@ def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
         known_scores = scorer.scores(problem, known)  # score cache hits
     except (BudgetSpent, Interlocked):  # a budget, or a dead end: the search decides
         stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_robustness=None)
-        return ()
+        return Start(simulations=stats["greedy_simulations"])
     finally:
         scorer.budget = saved
     stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_steps=len(ops),
@@ -78,4 +90,5 @@ def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
     # the model's steps are predicted for the search (one batch; simulated ones need none)
     scores.predict([op for op in ops if not scores.is_simulated(op)])
     stats["greedy_known"] = len(scores.simulated)
-    return tuple((op.moving | op.fixed, op) for op in ops)
+    return Start(tuple((op.moving | op.fixed, op) for op in ops), stats["greedy_simulations"],
+                 complete=not finished)

@@ -195,7 +195,7 @@ def test_the_beam_never_returns_a_plan_worse_than_simulator_only_greedy():
         alone = SearchPlanner(max_operations=1, beam_width=2, simulations=0, upper=0.0)
         s = scorer(liar)
         sc = SearchScores(problem, s)
-        trees = alone._beam(problem, sc, {}, _Run(sc))  # no greedy plan in it
+        trees = alone._beam(problem, sc, {}, _Run(sc), 0)  # no greedy plan in it
         worse_alone.append(float(np.prod(s.scores(problem, list(trees.values()))))
                            < greedy.robustness)
     assert any(worse_alone), worse_alone

@@ -36,7 +36,9 @@ def test_greedy_start_is_greedy_plan_with_every_candidate_known():
     s = scorer()
     scores = SearchScores(problem, s)
     stats: dict = {}
-    first = greedy_start(problem, s, scores, stats)
+    start = greedy_start(problem, s, scores, stats)
+    first = start.sequence
+    assert start.complete and start.simulations == stats["greedy_simulations"] > 0
     assert {op.key(problem.geometry_hash) for _, op in first} == {
         st.to_operation().key(problem.geometry_hash) for st in greedy.steps}
     assert stats["greedy_robustness"] == pytest.approx(greedy.robustness)
