@@ -1,0 +1,126 @@
+"""The default's simulation budget against R and time, on validation assemblies the benchmark lacks.
+
+    python -m research.budget_frontier --band small [--assembly-seeds 2] [--jsonl rows.jsonl]
+    python -m research.budget_frontier --band mid [--jsonl rows.jsonl]
+
+``benchmarks/plan_scale.py`` measures the default at assembly seeds 0 and 1. This measures how
+its budget options trade R for time on other assemblies of the same generators (other seeds and
+sizes), so that a default is not chosen on the figures it is reported with:
+
+* ``small`` (6-12 parts, below ``greedy_from``): the exact search's refine with its shipped budget
+  (``base``: 200 simulations, ``upper`` 0.35), with a budget of 10% or 7% of the graph's
+  operations (``s10``, ``s07``) and with a lower bound share (``u25``, ``u20``), against the
+  optimum (every operation simulated): R / optimum's R and time / optimum's time;
+* ``mid`` (18-24 parts): ``improve`` 0.5, 0.75, 1 (shipped) and 1.5 after greedy's start, and the
+  exact search without the start (``nostart``, ``greedy_from`` past the parts: the previous
+  default's search with this scorer), against simulator-only greedy.
+
+Planning seed 11, 100 trials, the default scorer, simulations in this process, back to back on
+each assembly (ratios within one run). Each row is printed (and appended to ``--jsonl``) as it
+ends, then the summary per setting. Cost: ``small`` about 25 minutes (the optima), ``mid`` about
+15 minutes, on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+
+from benchmarks.plan_scale import _graph_operations, build
+from rap.model.inference.operations import SHIPPED_MODEL, OperationPredictor
+from rap.plan import plan
+from rap.sim.params import SimParams
+
+SMALL = {"herringbone": (7, 9, 11), "wall": (7, 12), "grid": (6, 9, 12), "convex": (9, 12),
+         "tiling": (8, 11), "polyomino": (8, 10, 12), "knobs": (7, 10), "packing": (8, 11)}
+#: (kind, parts, assembly seed): walls and grids are the same at every seed
+MID = [("herringbone", 18, 2), ("herringbone", 20, 3), ("polyomino", 20, 2),
+       ("polyomino", 18, 3), ("packing", 24, 2), ("packing", 20, 3), ("convex", 20, 2),
+       ("tiling", 22, 2), ("wall", 20, 0), ("grid", 20, 0), ("knobs", 20, 2)]
+SEED = 11
+
+
+def _settings(band: str, ops: int | None) -> dict[str, dict]:
+    if band == "small":
+        return {"base": {}, "s10": {"simulations": max(1, -(-ops * 10 // 100))},
+                "s07": {"simulations": max(1, -(-ops * 7 // 100))},
+                "u25": {"upper": 0.25}, "u20": {"upper": 0.2}}
+    return {"i050": {"improve": 0.5}, "i075": {"improve": 0.75}, "i100": {},
+            "i150": {"improve": 1.5}, "nostart": {"greedy_from": 1000}}
+
+
+def _plan(asm, method, model, params, **options) -> list:
+    r = plan(asm, method, model=model, seed=SEED, params=params, **options)
+    return [r.robustness, r.seconds, r.stats.get("sim_run", 0)]
+
+
+def rows_for(band: str, seeds: list[int], model, params):
+    """Yield one row per validation assembly (module doc)."""
+    cases = ([(k, n, s) for s in seeds for k, ns in SMALL.items() for n in ns]
+             if band == "small" else MID)
+    for kind, n, aseed in cases:
+        try:
+            asm = build(kind, n, aseed)
+        except ValueError as exc:
+            print(f"{kind} {n}: skipped ({exc})", flush=True)
+            continue
+        row = {"kind": kind, "parts": n, "assembly_seed": aseed}
+        if band == "small":
+            row["operations"] = ops = _graph_operations(asm, SEED, params, 3000)
+            if ops is None:
+                print(f"{kind} {n}: skipped (over 3,000 operations, no optimum)", flush=True)
+                continue
+            row["reference"] = _plan(asm, "optimal", model, params)
+        else:
+            ops = None
+            row["reference"] = _plan(asm, "sim", model, params)
+        for name, options in _settings(band, ops).items():
+            row[name] = _plan(asm, "search", model, params, **options)
+        yield row
+
+
+def summary(rows: list[dict], band: str) -> list[str]:
+    """Per setting: R and time over the reference's (the optimum or greedy), as printed."""
+    def gmean(xs):
+        return math.exp(sum(math.log(x) for x in xs) / len(xs))
+
+    out = []
+    for name in _settings(band, 100):
+        rs = [r[name][0] / r["reference"][0] for r in rows if r["reference"][0] > 0]
+        ts = [r[name][1] / r["reference"][1] for r in rows]
+        line = (f"{name:8s} R/ref min {min(rs):.3f} mean {sum(rs) / len(rs):.3f} "
+                f"(below 0.95: {sum(x < 0.95 for x in rs)} of {len(rs)}) | time/ref max "
+                f"{max(ts):.2f} geometric mean {gmean(ts):.3f}")
+        if band == "mid":
+            ns = [r[name][0] / r["nostart"][0] for r in rows if r["nostart"][0] > 0]
+            line += f" | R/nostart geometric mean {gmean(ns):.3f} min {min(ns):.3f}"
+        out.append(line)
+    return out
+
+
+def main(argv=None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--band", choices=("small", "mid"), required=True)
+    ap.add_argument("--assembly-seeds", default="2", help="comma-separated (small band)")
+    ap.add_argument("--jsonl", default=None, help="append each row to this file")
+    a = ap.parse_args(argv)
+    model = OperationPredictor.load(SHIPPED_MODEL, engine="auto")
+    params = SimParams()
+    plan(build("grid", 4), "search", model=model, seed=SEED, params=SimParams(trials=2))  # warm
+    reference = "optimum" if a.band == "small" else "greedy"
+    print(f"budget_frontier {a.band}: R and time over the {reference}'s; {time.ctime()}")
+    rows = []
+    for row in rows_for(a.band, [int(s) for s in a.assembly_seeds.split(",")], model, params):
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+        if a.jsonl:
+            with open(a.jsonl, "a") as fh:
+                fh.write(json.dumps(row) + "\n")
+    print("\n".join(summary(rows, a.band)))
+    return rows
+
+
+if __name__ == "__main__":
+    main()
