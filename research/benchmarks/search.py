@@ -1,13 +1,16 @@
 """Search's exact mode: scoring lazily (branch and bound) against scoring the whole graph first.
 
-For each assembly, ``SearchPlanner`` without simulations plans with the same CNN, alternately with
-``lazy=True`` (``rap.plan.dp``: a subassembly's candidates are rendered and scored only
-when it can still matter, one batch per subassembly) and ``lazy=False`` (the whole graph in one
-batch, then the same DP), ``--repeats`` times each, interleaved; the plans must be identical.
+For each assembly, ``SearchPlanner`` without simulations plans with the same scorer, alternately
+lazily (``rap.plan.dp``: a subassembly's candidates are scored only when it can still matter, one
+batch per subassembly) and with the whole graph scored in one batch first
+(``research.variants.eager``), ``--repeats`` times each, interleaved; the plans must be identical.
 Prints per assembly the operations scored and the median planning times, and the ratio of the
-totals (one run, so machine noise hits both alike).
+totals (one run, so machine noise hits both alike). ``--engine``: ``auto``, the default scorer
+(the shipped search scores the whole graph first with it: ``Scorer.batch_first``), or ``cnn``, the
+CNN alone (the shipped search is lazy with it).
 
-    python -m research.benchmarks.search [--model rap/data/default_model.pt] [--repeats 3] [NAME ...]
+    python -m research.benchmarks.search [--engine auto|cnn] [--model rap/data/default_model.pt]
+        [--repeats 3] [NAME ...]
 
 Assemblies are looked up in assemblies/, assemblies/unseen/ and datasets/corpus/_assemblies/.
 """
@@ -27,6 +30,18 @@ DEFAULT = ["grid", "hexagon", "mixed-square", "pentagons", "rectilinear", "trian
            "packing-s25", "pegs-s5", "polyomino-s33", "wall-s4"]
 
 
+class Lazy:
+    """A scorer backend as given, but never asking for the whole graph first."""
+
+    batch_first = False
+
+    def __init__(self, backend):
+        self.backend = backend
+
+    def __getattr__(self, name):
+        return getattr(self.backend, name)
+
+
 class NoSimulator:
     """A simulator backend that must not be called (search without simulations)."""
 
@@ -39,6 +54,7 @@ def main() -> None:
     ap.add_argument("names", nargs="*", default=DEFAULT)
     ap.add_argument("--model", default=str(ROOT / "rap" / "data" / "default_model.pt"))
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--engine", choices=("auto", "cnn"), default="auto")
     a = ap.parse_args()
 
     from rap.io import load_assembly
@@ -50,7 +66,7 @@ def main() -> None:
     from research.variants.eager import EagerSearchPlanner
     from rap.sim.params import SimParams
 
-    cnn = OperationPredictor.load(a.model, engine="auto")
+    cnn = OperationPredictor.load(a.model, engine=a.engine)
     dirs = [ROOT / "assemblies", ROOT / "assemblies" / "unseen",
             ROOT / "datasets" / "corpus" / "_assemblies"]
     totals = {True: 0.0, False: 0.0}
@@ -67,8 +83,9 @@ def main() -> None:
                 problem = PlanningProblem(asm, SimParams(), 1)
                 st = {}
                 t = time.perf_counter()
-                steps = (SearchPlanner if lazy else EagerSearchPlanner)(simulations=0, upper=0.0)._search(problem, Scorer(NoSimulator(), cnn,
-                                                                         ScoreCache()), st)
+                planner = (SearchPlanner if lazy else EagerSearchPlanner)(simulations=0, upper=0.0)
+                backend = Lazy(cnn) if lazy else cnn
+                steps = planner._search(problem, Scorer(NoSimulator(), backend, ScoreCache()), st)
                 times[lazy].append(time.perf_counter() - t)
                 plans[lazy] = [(s.moving, s.fixed, s.direction) for s in steps]
                 if lazy:

@@ -94,6 +94,15 @@ class CascadeScorer:
         if tuple(model.meta.get("descriptors", DESCRIPTORS)) != DESCRIPTORS:
             raise ValueError("the descriptor model must take rap.model.data.descriptors.DESCRIPTORS")
 
+    @property
+    def batch_first(self) -> bool:
+        """Whether a caller that will score most of a set of operations should score them in one
+        batch rather than a few at a time: true when the band is empty (no operation reaches the
+        CNN), since the trees' cost is mostly per call (``python -m research.benchmarks.search``:
+        a search's whole graph at once in 0.59 of the time of a batch per subassembly); false
+        when the CNN may be asked (its cost is per operation: scoring only what is needed pays)."""
+        return self.band[0] >= self.band[1]
+
     # what the plan command reads of a CNN backend ------------------------------------------
     @property
     def predictor(self):

@@ -160,6 +160,13 @@ class Scorer:
         ``rap.model.calibration.load()``)."""
         return getattr(self.cnn, "bounds", None)
 
+    @property
+    def batch_first(self) -> bool:
+        """Whether the CNN backend scores a large batch cheaper than the same operations a few at
+        a time (``rap.model.inference.cascade.CascadeScorer.batch_first``); False when it does
+        not say (the CNN: its cost is per operation)."""
+        return bool(getattr(self.cnn, "batch_first", False))
+
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The CNN's P(high) for each operation, one batch. Raises when no CNN is loaded."""
         return self._cnn_call("prob_high", problem, ops)

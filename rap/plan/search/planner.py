@@ -10,9 +10,10 @@ which is spent only where it decides. Its options and their measured defaults ar
    the search; the result is never worse than it (stats: ``greedy_robustness``,
    ``greedy_seconds``, ``greedy_simulations``).
 2. **Exact** (at most ``max_operations`` candidate operations, below ``beam_from`` parts): the
-   optimum's DP over the
-   reachable subassemblies by branch and bound (``rap.plan.dp.dp_choice_bounded``: a
-   subassembly's candidates are scored only when they can still matter). An interlocked
+   optimum's DP over the reachable subassemblies by branch and bound
+   (``rap.plan.dp.dp_choice_bounded``: a subassembly's candidates are scored only when they can
+   still matter; with a scorer whose batches are cheaper, ``Scorer.batch_first``, the whole graph
+   is scored in one batch first, the same scores and plans). An interlocked
    subassembly is a dead end (value 0), not a failure. **Beam** beyond it (e.g. 30 or 100 parts):
    ``rap.plan.search.beam``; greedy's plan joins the final beam, and after the refine (3) the
    chosen plan's runs of one-part steps are re-ordered ``window`` steps at a time with what is
@@ -42,11 +43,12 @@ which is spent only where it decides. Its options and their measured defaults ar
 
 With a perfect model the exact mode returns the optimum; with zero-width bounds too, ``V`` is the
 optimum. Each step says where its score came from: ``sim`` or ``cnn``. Variants measured not to
-pay (per-assembly score correction, sequential tests, scoring the whole graph first) live in
-``research/variants/``.
+pay (per-assembly score correction, sequential tests, scoring the whole graph first whatever the
+scorer) live in ``research/variants/``.
 
-Cost: one CNN batch per subassembly visited (exact; 65-71% of the graph's operations on held-out
-assemblies) or per round (beam), the simulations asked for, and the bound's DP (``max_value``).
+Cost: one scorer batch per subassembly visited (exact; 65-71% of the graph's operations on
+held-out assemblies with the CNN), or the whole graph in one batch when the scorer says it is
+cheaper so (``Scorer.batch_first``: the default scorer), or one per round (beam), the simulations asked for, and the bound's DP (``max_value``).
 No ray, no torch.
 """
 
@@ -317,6 +319,8 @@ class SearchPlanner(Planner):
     # -- exact ------------------------------------------------------------------------------------
     def _exact(self, graph, scores: SearchScores, whole, stats, budget: int) -> dict:
         stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
+        if scores.scorer.batch_first:  # the default scorer: the whole graph at once is cheaper
+            scores.predict([op for c in graph.values() for op in c])
 
         def scores_of(s):  # predicted on the first visit, one CNN batch per subassembly
             if not scores.cached("of", s):

@@ -57,6 +57,14 @@ def test_band_rule_and_agreement_with_the_cnn(problem_ops):
     assert mid.counts["cnn"] == inside.sum()
 
 
+def test_batch_first_only_when_no_operation_reaches_the_cnn():
+    cnn = OperationPredictor.load(SHIPPED, engine="cnn")
+    model = load_default(SHIPPED, cnn).model
+    assert CascadeScorer(cnn, model, band=(0.5, 0.5)).batch_first  # the trees alone
+    assert not CascadeScorer(cnn, model, band=(0.2, 0.8)).batch_first
+    assert OperationPredictor.load(SHIPPED, engine="auto").batch_first  # the shipped band
+
+
 def test_batching_changes_nothing(problem_ops):
     problem, ops = problem_ops
     scorer = OperationPredictor.load(SHIPPED, engine="auto")

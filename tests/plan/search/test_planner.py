@@ -30,6 +30,28 @@ def tree(result):
     return [(s.moving, s.fixed, s.direction) for s in result.steps]
 
 
+class BatchFirstCnn(TableCnn):
+    """A stand-in whose batches are cheaper than its operations one at a time."""
+
+    batch_first = True
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_a_batch_first_scorer_gets_the_whole_graph_in_one_batch_and_the_same_plan(name):
+    problem = PlanningProblem(six(name), PARAMS)
+    plans = []
+    for cls in (TableCnn, BatchFirstCnn):
+        cnn = cls(lambda op: 0.5, score_fn=lambda op: 0.2 + 0.6 * hash_score(op))
+        plans.append(SearchPlanner(simulations=40).solve(problem, scorer(cnn)))
+        if cls is BatchFirstCnn:
+            st = plans[-1].stats
+            assert st["search"] == "exact" and st["predicted_operations"] == st["operations"]
+            assert cnn.scored == st["operations"] and st["cnn_batches"] == 1
+    assert tree(plans[0]) == tree(plans[1])
+    assert plans[0].robustness == plans[1].robustness
+    assert plans[0].stats["sim_run"] == plans[1].stats["sim_run"]
+
+
 @pytest.mark.parametrize("name", SIX)
 def test_a_perfect_model_gives_exactly_the_optimum(name):
     problem = PlanningProblem(six(name), PARAMS)
