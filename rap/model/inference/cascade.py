@@ -99,7 +99,7 @@ class CascadeScorer:
         """Whether a caller that will score most of a set of operations should score them in one
         batch rather than a few at a time: true when the band is empty (no operation reaches the
         CNN), since the trees' cost is mostly per call (``python -m research.benchmarks.search``:
-        a search's whole graph at once in 0.59 of the time of a batch per subassembly); false
+        a search's whole graph at once in 0.6 of the time of a batch per subassembly); false
         when the CNN may be asked (its cost is per operation: scoring only what is needed pays)."""
         return self.band[0] >= self.band[1]
 

@@ -47,9 +47,9 @@ pay (per-assembly score correction, sequential tests, scoring the whole graph fi
 scorer) live in ``research/variants/``.
 
 Cost: one scorer batch per subassembly visited (exact; 65-71% of the graph's operations on
-held-out assemblies with the CNN), or the whole graph in one batch when the scorer says it is
-cheaper so (``Scorer.batch_first``: the default scorer), or one per round (beam), the simulations asked for, and the bound's DP (``max_value``).
-No ray, no torch.
+held-out assemblies with the CNN), or the whole graph in one batch where the scorer says that is
+cheaper (``Scorer.batch_first``: the default scorer), or one batch per round (beam); the
+simulations asked for; and the bound's DP (``max_value``). No ray, no torch.
 """
 
 from __future__ import annotations

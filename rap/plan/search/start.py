@@ -1,14 +1,14 @@
 """The search's first complete plan: simulator-only greedy's, with everything greedy simulated.
 
-``greedy_start(problem, scorer, scores, stats, time_limit)`` returns a ``Start``; it runs ``SimPlanner`` (every candidate
-of each subassembly on its way simulated, the best taken) and makes every score it simulated known
-to the search (``SearchScores.add_simulated``: those candidates are exact from then on). The
-search then only improves on that plan: it never returns a worse one (``rap.plan.search.planner``,
-module doc, 1). With a ``time_limit``, greedy may take at most ``GREEDY_SHARE`` of it: past
+``greedy_start(problem, scorer, scores, stats, time_limit)`` returns a ``Start``. It runs
+``SimPlanner`` (every candidate of each subassembly on its way simulated, the best taken) and
+makes every score it simulated known to the search (``SearchScores.add_simulated``: those
+candidates are exact from then on). The search then only improves on that plan: it never returns
+a worse one (``rap.plan.search.planner``, module doc, 1). With a ``time_limit``, greedy may take at most ``GREEDY_SHARE`` of it: past
 that, the levels left are chosen by the model's expected scores, without simulation (an anytime
 greedy, ``rap.plan.planners.greedy``'s ``finish``), so a first plan exists whatever the limit. At
-the caller's own budget, or at a dead end, there is no first plan (``()``) and the search goes on
-without one.
+the caller's own budget, or at a dead end, there is no first plan (an empty ``sequence``) and the
+search goes on without one.
 
 Stats: ``greedy_simulations``, ``greedy_steps``, ``greedy_seconds``, ``greedy_robustness`` (None
 when a step was chosen by the model or there is no plan), ``greedy_by_model`` (the steps the model
