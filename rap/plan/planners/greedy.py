@@ -92,6 +92,7 @@ class _Greedy(Planner):
         choice: dict[frozenset, PlanStep] = {}
         open_ = [whole] if len(whole) >= 2 else []
         stats.update(levels=0, decisions=0)
+        finishing = False  # the budget ended: ``finish`` chooses this level and every later one
         while open_:
             cands = []
             for s in open_:
@@ -99,17 +100,16 @@ class _Greedy(Planner):
                 if not c:
                     raise Interlocked(s)
                 cands.append(c)
-            if "finished_levels" in stats:
-                chosen = self.finish(problem, scorer, cands, stats)
-                stats["finished_levels"] += 1
-            else:
+            if not finishing:
                 try:
                     chosen = self._select(problem, scorer, cands, stats)
                 except BudgetSpent:
                     if self.finish is None:
                         raise
-                    chosen = self.finish(problem, scorer, cands, stats)
-                    stats["finished_levels"] = 1
+                    finishing = True
+            if finishing:
+                chosen = self.finish(problem, scorer, cands, stats)
+                stats["finished_levels"] = stats.get("finished_levels", 0) + 1
             stats["levels"] += 1
             stats["decisions"] += len(open_)
             nxt = []

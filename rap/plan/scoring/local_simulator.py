@@ -177,9 +177,9 @@ class LocalSimulator:
             workers, self.workers = self.workers, []
         if ex is None:
             return
-        terminate = getattr(ex, "kill_workers", None)  # Python >= 3.14
-        if terminate is not None:
-            terminate()
+        kill_workers = getattr(ex, "kill_workers", None)  # Python >= 3.14
+        if kill_workers is not None:
+            kill_workers()
             return
         for proc in workers:
             # SIGKILL, not SIGTERM: a worker forked a moment ago may not have run its initializer

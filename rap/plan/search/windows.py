@@ -70,21 +70,20 @@ def polish(problem: PlanningProblem, scores, plan: dict, width: int, budget: int
     window is started after ``deadline`` (a ``time.perf_counter()`` value; None: none)."""
     plan = dict(plan)
     spent, changed, visited, gain = 0, 0, 0, 1.0
+    stopped = None  # "time" (the deadline) or "budget": this window and the rest stay as they are
     for run in runs(plan, problem.whole):
         for i in range(0, len(run) - 1, width):
             if deadline is not None and time.perf_counter() > deadline:
-                stats.update(windows=f"{changed}/{visited}", window_simulations=spent,
-                             window_gain=gain, windows_stopped="time")
-                return plan
+                stopped = "time"
+                break
             start, end = run[i], run[min(i + width, len(run) - 1)]
             old = [plan[s] for s in run[i:min(i + width, len(run) - 1)]]
             if not all(scores.is_simulated(op) for op in old):
                 continue
             order = _best_order(problem, scores, start, end, budget - spent)
-            if order is None:  # the budget: this window and the rest stay as they are
-                stats.update(windows=f"{changed}/{visited}", window_simulations=spent,
-                             window_gain=gain)
-                return plan
+            if order is None:
+                stopped = "budget"
+                break
             value, steps, used = order
             spent += used
             visited += 1
@@ -97,7 +96,11 @@ def polish(problem: PlanningProblem, scores, plan: dict, width: int, budget: int
                 plan.update(steps)
                 changed += 1
                 gain *= value / before
+        if stopped:
+            break
     stats.update(windows=f"{changed}/{visited}", window_simulations=spent, window_gain=gain)
+    if stopped == "time":
+        stats["windows_stopped"] = "time"
     return plan
 
 
