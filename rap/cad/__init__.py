@@ -1,14 +1,17 @@
 """CAD import: DXF and SVG drawings of planar parts to exact, validated assemblies.
 
-``import_drawing(path, ImportOptions(units="mm", tolerance="0.01", parts="loop", scale=None))``
-returns an ``ImportResult`` whose ``assembly`` is validated exactly; ``rap.io.load_assembly``
+``import_drawing(path, ImportOptions(units="mm", tolerance="0.01", parts="auto", scale=None,
+layers=None, skip_layers=None))`` returns an ``ImportResult`` whose ``assembly`` is validated
+exactly; ``rap.io.load_assembly``
 calls it with the default options for a ``.dxf`` or ``.svg`` path, so every command that takes an
 assembly takes a drawing. Modules, one family each: ``dxf`` and ``svg`` (readers: entities to
 float paths in the output unit), ``loops`` (joining paths into closed loops), ``edges`` (shared
 boundaries: ends merged into nodes, one geometry per edge, T-junctions split), ``rings`` (exact
 rings on the grid, shared boundaries given the same vertices, checked simple), ``parts`` (holes by
-containment, parts per loop or per layer), ``snap`` (the tolerance grid), ``importer`` (the
-pipeline and validation).
+containment, parts per loop or per layer), ``snap`` (the tolerance grid), ``layers`` (``--layers``,
+``--skip-layers``), ``annotations`` (what is not a part's outline: construction and dimension
+lines, symbols, frames, outlines drawn again), ``faces`` (parts as the faces of cut lines drawn
+once, noded with snap rounding), ``importer`` (the pipeline and validation).
 
 Layer: above ``rap.assembly`` and ``rap.geometry``, beside ``rap.io`` (which imports it lazily);
 no ray, torch or rendering. ezdxf and svgelements are imported inside the readers.

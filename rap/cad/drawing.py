@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from rap.assembly import AssemblyError
 
 __all__ = ["Point", "Source", "DrawnPath", "Drawing", "Problem", "DrawingError", "UNITS_MM",
-           "distance", "fmt_length", "fmt_point"]
+           "distance", "fmt_length", "fmt_point", "left_out_text"]
 
 Point = tuple[float, float]
 
@@ -84,6 +84,9 @@ class DrawnPath:
     pieces: list[list[Point]]
     source: Source
     closed: bool
+    #: why the path is construction rather than a part's outline ("centre line", "dashed
+    #: line"): a DXF linetype other than continuous, an SVG stroke-dasharray; None for outlines
+    construction: str | None = None
 
     @property
     def start(self) -> Point:
@@ -94,16 +97,46 @@ class DrawnPath:
         return self.pieces[-1][-1]
 
     def reversed(self) -> "DrawnPath":
-        return DrawnPath([p[::-1] for p in reversed(self.pieces)], self.source, self.closed)
+        return DrawnPath([p[::-1] for p in reversed(self.pieces)], self.source, self.closed,
+                         self.construction)
 
 
 @dataclass
 class Drawing:
-    """A reader's result: the paths, the unit read and converted, entities left out."""
+    """A reader's result: the paths, the unit read and converted, entities left out (counted
+    by ``(kind, layer)``), and each layer's other names (an SVG layer's id and its Inkscape
+    label) for ``--layers``."""
 
     paths: list[DrawnPath]
     unit_note: str  # e.g. "$INSUNITS 1 (in) -> mm", "width 100mm -> mm", "--scale 0.5 mm"
     ignored: Counter = field(default_factory=Counter)
+    layer_names: dict[str, set[str]] = field(default_factory=dict)
+
+
+def left_out_text(counts: Counter) -> str:
+    """``Counter`` of ``(kind, layer)`` (or of kind) as one phrase, largest first:
+    ``5 open paths on layer 'Dimensions', 1 TEXT, 1 DIMENSION``."""
+    merged: Counter = Counter()
+    for key, n in counts.items():
+        kind, layer = key if isinstance(key, tuple) else (key, None)
+        merged[(kind, layer)] += n
+    out = []
+    for (kind, layer), n in sorted(merged.items(), key=lambda kv: (-kv[1], kv[0][0],
+                                                                   str(kv[0][1]))):
+        out.append(f"{n} {_plural(kind) if n > 1 else kind}"
+                   + (f" on layer {layer!r}" if layer not in (None, "0") else ""))
+    return ", ".join(out)
+
+
+def _plural(kind: str) -> str:
+    """``open path`` -> ``open paths``, ``shape drawn twice`` -> ``shapes drawn twice``; entity
+    names (``DIMENSION``) stay as they are."""
+    if kind.isupper() or kind.endswith("s"):
+        return kind
+    words = kind.split(" ")
+    k = next((i for i, w in enumerate(words) if w in ("drawn", "of", "on")), len(words)) - 1
+    words[k] += "s"
+    return " ".join(words)
 
 
 def distance(p: Point, q: Point) -> float:

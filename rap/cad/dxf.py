@@ -8,7 +8,9 @@ named ``HANDLE.N`` after the INSERT's handle). Curves are flattened with ezdxf's
 (``ConstructionArc.flattening(sagitta)``, ``ConstructionEllipse.flattening(distance)``,
 ``BSpline.flattening(distance)``) so that no chord is farther than the tolerance from its curve,
 in WCS, projected onto the xy-plane. Other entities (TEXT, DIMENSION, HATCH, POINT...) are counted
-and left out.
+by layer and left out. An entity drawn in a linetype other than continuous (its own, or its
+layer's: CENTER, HIDDEN, PHANTOM, DASHED...) is marked construction (``DrawnPath.construction``):
+drafting draws centre lines and hidden edges that way, never a part's outline.
 
 Units: ``$INSUNITS`` converts to the output unit (``ezdxf.units.conversion_factor``); a unitless
 drawing (``$INSUNITS`` 0) is read as already in the output unit (the convention of a cutting
@@ -136,6 +138,35 @@ def _paths_of(e, src: Source, factor: float, sagitta: float) -> list[DrawnPath] 
     return None
 
 
+#: linetypes of outlines: the rest (centre, hidden, phantom, dashed...) mark construction
+CONTINUOUS = frozenset({"", "CONTINUOUS", "BYLAYER", "BYBLOCK"})
+_KINDS = (("CENT", "centre line"), ("HIDDEN", "hidden line"), ("PHANTOM", "phantom line"),
+          ("DASH", "dashed line"), ("DOT", "dotted line"))
+
+
+def _linetype(doc, entity, layer: str) -> str:
+    """The entity's linetype, ``BYLAYER`` resolved through its layer's table entry."""
+    name = str(entity.dxf.get("linetype", "BYLAYER") or "BYLAYER")
+    if name.upper() == "BYLAYER":
+        try:
+            name = str(doc.layers.get(layer).dxf.get("linetype", "CONTINUOUS"))
+        except Exception:  # a layer missing from the table: drawn continuous
+            name = "CONTINUOUS"
+    return name
+
+
+def _construction(linetype: str) -> str | None:
+    """What a non-continuous linetype marks (drafting's chain and dashed lines: centre lines,
+    hidden edges), or None for an outline's continuous line."""
+    up = linetype.upper()
+    if up in CONTINUOUS:
+        return None
+    for key, kind in _KINDS:
+        if key in up:
+            return kind
+    return f"{linetype} line"
+
+
 def read_dxf(path: str | Path, unit: str, tol: float) -> Drawing:
     """The drawn paths of a DXF file's model space in ``unit`` (see the module doc)."""
     import ezdxf
@@ -187,9 +218,12 @@ def read_dxf(path: str | Path, unit: str, tol: float) -> Drawing:
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
             raise Problem(f"{src.describe()}: cannot be read ({exc})") from None
         if got is None:
-            ignored[kind] += 1
-        else:
-            paths.extend(got)
+            ignored[(kind, layer)] += 1
+            return
+        construction = _construction(_linetype(doc, entity, layer))
+        for path in got:
+            path.construction = construction
+        paths.extend(got)
 
     for entity in doc.modelspace():
         visit(entity, str(entity.dxf.handle), 0)

@@ -23,13 +23,14 @@ read. ``ImportResult.summary()`` is the line ``rap-farm import`` prints.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from collections import Counter
+from dataclasses import dataclass, field, replace
 from decimal import Decimal
 from pathlib import Path
 
 from rap.assembly import Assembly, AssemblyError
 from rap.assembly_reader import assembly_from_json
-from rap.cad.drawing import UNITS_MM, DrawingError, Problem
+from rap.cad.drawing import UNITS_MM, DrawingError, Problem, left_out_text
 from rap.cad.loops import join_loops
 from rap.cad.parts import ExactPart, group_parts
 from rap.cad.rings import exact_rings
@@ -40,19 +41,24 @@ __all__ = ["ImportOptions", "ImportResult", "import_drawing", "DRAWING_SUFFIXES"
            "assembly_document"]
 
 DRAWING_SUFFIXES = (".dxf", ".svg")
-PART_MODES = ("loop", "layer")
+PART_MODES = ("auto", "loop", "layer", "face")
 
 
 @dataclass(frozen=True)
 class ImportOptions:
     """``units``: the output unit (mm, cm, m, in); ``tolerance``: chordal tolerance and grid step
-    in that unit (a decimal, >= 1e-6); ``parts``: a part per closed ``loop`` or per ``layer``;
-    ``scale``: output units per SVG user unit (needed for an SVG without physical units)."""
+    in that unit (a decimal, >= 1e-6); ``parts``: ``auto`` (annotations left out, then a part per
+    closed loop, or per face of the arrangement where cut lines are drawn once), ``face`` (faces
+    always), ``loop`` or ``layer`` (every path read, a part per closed loop or per layer);
+    ``scale``: output units per SVG user unit (default: a user unit is a CSS px where the SVG
+    states no physical size); ``layers``/``skip_layers``: the layers to read or to skip."""
 
     units: str = "mm"
     tolerance: str = "0.01"
-    parts: str = "loop"
+    parts: str = "auto"
     scale: float | None = None
+    layers: tuple[str, ...] | None = None
+    skip_layers: tuple[str, ...] | None = None
 
     def checked(self) -> Grid:
         """The tolerance's grid; ``ParameterError`` naming the option (``units``, ``parts``,
@@ -60,7 +66,7 @@ class ImportOptions:
         if self.units not in UNITS_MM:
             raise ParameterError("units", self.units, f"choose one of {', '.join(UNITS_MM)}")
         if self.parts not in PART_MODES:
-            raise ParameterError("parts", self.parts, "choose loop or layer")
+            raise ParameterError("parts", self.parts, f"choose one of {', '.join(PART_MODES)}")
         if self.scale is not None and not self.scale > 0:
             raise ParameterError("scale", self.scale, "must be a positive number")
         return Grid.parse(self.tolerance)
@@ -81,13 +87,19 @@ class ImportResult:
     def vertices(self) -> int:
         return sum(len(p.outer) + sum(len(h) for h in p.holes) for p in self.assembly.parts)
 
+    #: how the parts were made: "loops", "faces" (cut lines), or the mode asked for
+    made_by: str = "loops"
+    #: parts per layer, when the parts come from two or more layers
+    by_layer: dict = field(default_factory=dict)
+
     def summary(self) -> str:
         holes = sum(len(p.holes) for p in self.assembly.parts)
-        left = ("; left out: " + ", ".join(f"{n} {k}" for k, n in sorted(self.ignored.items()))
-                if self.ignored else "")
-        return (f"{len(self.assembly)} parts ({holes} holes), {self.vertices} vertices, "
-                f"{self.gaps_closed} gaps closed, unit {self.unit} ({self.unit_note}), "
-                f"tolerance {self.tolerance:f} {self.unit}{left}")
+        left = f"; left out: {left_out_text(Counter(self.ignored))}" if self.ignored else ""
+        layers = ("; parts by layer: " + ", ".join(f"{k} {n}" for k, n in self.by_layer.items())
+                  + " (--layers, --skip-layers choose)" if len(self.by_layer) > 1 else "")
+        return (f"{len(self.assembly)} parts ({holes} holes) as {self.made_by}, "
+                f"{self.vertices} vertices, {self.gaps_closed} gaps closed, unit {self.unit} "
+                f"({self.unit_note}), tolerance {self.tolerance:f} {self.unit}{left}{layers}")
 
 
 def assembly_document(name: str, parts: list[ExactPart], grid: Grid, units: str | None = None
@@ -106,7 +118,37 @@ def assembly_document(name: str, parts: list[ExactPart], grid: Grid, units: str 
 _OVERLAP = re.compile(r"^overlaps part '(.*)'$", re.S)
 
 
-def _validated(doc: dict, source: str, parts: list[ExactPart]) -> Assembly:
+def _overlap(a: ExactPart, b: ExactPart, grid: Grid, unit: str) -> str:
+    """The overlap of two parts' outlines, for a message: its area, its depth (twice the area
+    over the perimeter: a sliver's width) and the ``--tolerance`` that would absorb it."""
+    import shapely
+
+    step = grid.step_float
+    pa, pb = (shapely.Polygon([(x * step, y * step) for x, y in p.outer]) for p in (a, b))
+    inter = pa.intersection(pb)
+    area = inter.area
+    depth = 2 * area / inter.length if inter.length else 0.0
+    digits = max(0, -grid.step.as_tuple().exponent)
+    text = f"by {area:.{digits}f} {unit}^2, {depth:.{digits}f} {unit} deep"
+    if 0 < depth < 0.05 * max(pa.area, pb.area) ** 0.5:
+        nice = _nice_above(2 * depth)
+        text += f" (--tolerance {nice:g} absorbs an overlap this thin)"
+    return text
+
+
+def _nice_above(x: float) -> float:
+    """The smallest of 1, 2, 5 times a power of ten that is at least ``x``."""
+    import math
+
+    p = 10.0 ** math.floor(math.log10(x))
+    for m in (1, 2, 5, 10):
+        if m * p >= x:
+            return float(f"{m * p:.6g}")
+    return 10 * p
+
+
+def _validated(doc: dict, source: str, parts: list[ExactPart], grid: Grid, unit: str
+               ) -> Assembly:
     from rap.geometry.validation import validate_assembly
 
     by_id = {p.id: p for p in parts}
@@ -120,7 +162,8 @@ def _validated(doc: dict, source: str, parts: list[ExactPart]) -> Assembly:
         if other is not None:
             return DrawingError(source, f"{part.source.describe()} and "
                                         f"{other.source.describe()}: parts {part.id!r} and "
-                                        f"{other.id!r} overlap")
+                                        f"{other.id!r} overlap "
+                                        f"{_overlap(part, other, grid, unit)}")
         def hole(m: re.Match) -> str:
             k = int(m.group(1))
             return f"the hole {part.hole_sources[k].describe()}" if k < len(part.hole_sources) \
@@ -140,8 +183,36 @@ def _validated(doc: dict, source: str, parts: list[ExactPart]) -> Assembly:
     return assembly
 
 
+_HINT = re.compile(r" \(--tolerance (\S+) absorbs an overlap this thin\)")
+
+
 def import_drawing(path: str | Path, options: ImportOptions = ImportOptions()) -> ImportResult:
-    """Import a DXF or SVG drawing as a validated exact assembly (see the module doc)."""
+    """Import a DXF or SVG drawing as a validated exact assembly (see the module doc).
+
+    A refusal that names a ``--tolerance`` has been checked: the import was tried again with it
+    and succeeded; where it did not, the refusal says that no tolerance that small merges the
+    overlap (so no message names a flag that would not work)."""
+    try:
+        return _import(path, options)
+    except DrawingError as exc:
+        m = _HINT.search(exc.problem)
+        if m is None:
+            raise
+        first = float(m.group(1))
+        for tolerance in (first, _nice_above(2.01 * first), _nice_above(4.01 * first)):
+            try:
+                got = _import(path, replace(options, tolerance=f"{tolerance:g}"))
+            except (DrawingError, ParameterError):
+                continue
+            if got.made_by == "loops" and len(got.assembly) == getattr(exc, "parts", -1):
+                raise DrawingError(exc.source, _HINT.sub(
+                    f" (--tolerance {tolerance:g} absorbs the overlaps)", exc.problem)) from None
+        raise DrawingError(exc.source, _HINT.sub(
+            f": the pieces overlap as drawn (no --tolerance up to {_nice_above(4.01 * first):g} "
+            f"merges them into as many parts)", exc.problem)) from None
+
+
+def _import(path: str | Path, options: ImportOptions) -> ImportResult:
     path = Path(path)
     source = str(path)
     suffix = path.suffix.lower()
@@ -153,26 +224,88 @@ def import_drawing(path: str | Path, options: ImportOptions = ImportOptions()) -
         raise DrawingError(source, "no such file" if not path.exists() else "not a file")
     tol = grid.step_float
     try:
-        if suffix == ".dxf":
-            from rap.cad.dxf import read_dxf
+        drawing = _read(path, suffix, options, tol)
+        from rap.cad.layers import choose_layers
 
-            drawing = read_dxf(path, options.units, tol)
-        else:
-            from rap.cad.svg import read_svg
-
-            drawing = read_svg(path, options.units, tol, options.scale)
-        if not drawing.paths:
-            found = ", ".join(f"{n} {k}" for k, n in sorted(drawing.ignored.items())) or "nothing"
+        paths = choose_layers(drawing, options.layers, options.skip_layers)
+        ignored = Counter(drawing.ignored)
+        if not paths:
+            found = left_out_text(ignored) or "nothing"
             raise Problem(f"no closed loop found: no lines, arcs, circles, ellipses, splines, "
                           f"polylines or paths (found {found})")
-        loops = join_loops(drawing.paths, tol, options.units)
-        if not loops:
-            raise Problem("no closed loop found (every path is degenerate)")
-        rings, gaps = exact_rings(loops, grid, options.units)
-        parts = group_parts(rings, options.parts)
+        parts, gaps, made_by = _parts(paths, grid, options, ignored)
     except Problem as exc:
         raise DrawingError(source, str(exc)) from None
     doc = assembly_document(path.stem or "drawing", parts, grid, options.units)
-    assembly = _validated(doc, source, parts)
+    try:
+        assembly = _validated(doc, source, parts, grid, options.units)
+    except DrawingError as exc:
+        exc.parts = len(parts)  # what a tolerance that absorbs an overlap must keep
+        raise
+    by_layer = Counter(p.layer for p in parts if p.layer is not None)
     return ImportResult(assembly, gaps, options.units, grid.step, drawing.unit_note,
-                        dict(drawing.ignored))
+                        dict(ignored), made_by, dict(by_layer))
+
+
+def _read(path: Path, suffix: str, options: ImportOptions, tol: float):
+    if suffix == ".dxf":
+        from rap.cad.dxf import read_dxf
+
+        return read_dxf(path, options.units, tol)
+    from rap.cad.svg import read_svg
+
+    return read_svg(path, options.units, tol, options.scale)
+
+
+def _loop_parts(paths, grid: Grid, options: ImportOptions, by: str):
+    loops = join_loops(paths, grid.step_float, options.units)
+    if not loops:
+        raise Problem("no closed loop found (every path is degenerate)")
+    rings, gaps = exact_rings(loops, grid, options.units)
+    return group_parts(rings, by), gaps
+
+
+_GAP = re.compile(r"the gap to the nearest free end, .* is (\S+) \S+$")
+
+
+def _open_loop_gap(paths, grid: Grid, options: ImportOptions) -> None:
+    """Where every path was left out as open: if the loose paths are loops with a gap, raise
+    the loop builder's message naming it and the ``--tolerance`` that closes it."""
+    try:
+        join_loops([p for p in paths if p.construction is None], grid.step_float, options.units)
+    except Problem as exc:
+        m = _GAP.search(str(exc))
+        if m:
+            raise Problem(f"{exc}: --tolerance {_nice_above(1.01 * float(m.group(1))):g} "
+                          f"closes it") from None
+
+
+def _parts(paths, grid: Grid, options: ImportOptions, ignored: Counter):
+    """(parts, gaps closed, how they were made) for the chosen mode (see ``ImportOptions``)."""
+    if options.parts in ("loop", "layer"):
+        parts, gaps = _loop_parts(paths, grid, options, options.parts)
+        return parts, gaps, f"{options.parts}s"
+    from rap.cad.annotations import sort_out
+    from rap.cad.faces import face_parts
+
+    sorting = sort_out(paths, grid.step_float)
+    ignored.update(sorting.left_out)
+    if not sorting.kept:
+        _open_loop_gap(paths, grid, options)
+        raise Problem(f"no part found: every path is an annotation (left out: "
+                      f"{left_out_text(ignored)}); choose layers with --layers, or "
+                      f"--parts loop to read every path")
+    if options.parts == "face" or sorting.networks:
+        parts, gaps = face_parts(sorting.kept, grid)
+        return parts, gaps, "faces"
+    try:
+        parts, gaps = _loop_parts(sorting.kept, grid, options, "loop")
+        return parts, gaps, "loops"
+    except Problem as exc:  # a crossing made by rounding: snap rounding keeps rings simple
+        if "self-intersection" not in str(exc):
+            raise
+        parts, gaps = face_parts(sorting.kept, grid)
+        if len(parts) != sorting.loop_parts:  # a loop that crosses itself, not a rounding
+            raise Problem(f"{exc}; as a cut path its crossings bound {len(parts)} faces: "
+                          f"--parts face reads them as parts") from None
+        return parts, gaps, "faces"

@@ -34,7 +34,7 @@ from rap.cad.rings import ExactRing
 from rap.geometry.exact import orient
 from rap.geometry.validation import point_in_ring
 
-__all__ = ["ExactPart", "interior_point", "nest", "group_parts"]
+__all__ = ["ExactPart", "interior_point", "nest", "group_parts", "canonical_ring"]
 
 
 @dataclass
@@ -101,7 +101,7 @@ def nest(rings: list[ExactRing]) -> list[list[int]]:
     return held
 
 
-def _canonical(ring: list[Node], ccw: bool) -> list[Node]:
+def canonical_ring(ring: list[Node], ccw: bool) -> list[Node]:
     from rap.assembly import signed_area2
 
     if (signed_area2(ring) > 0) != ccw:
@@ -166,9 +166,9 @@ def group_parts(rings: list[ExactRing], by: str = "loop") -> list[ExactPart]:
         while pid in used:
             pid, k = _clean_id(f"{base}:{src.tag()}.{k}"), k + 1
         used.add(pid)
-        holes = sorted(((_canonical(rings[h].vertices, ccw=False), rings[h].loop.source)
+        holes = sorted(((canonical_ring(rings[h].vertices, ccw=False), rings[h].loop.source)
                         for h in hole_ids), key=lambda hs: hs[0][0])
-        out.append(ExactPart(pid, _canonical(rings[outer].vertices, ccw=True),
+        out.append(ExactPart(pid, canonical_ring(rings[outer].vertices, ccw=True),
                              [h for h, _ in holes], src, rings[outer].loop.layer,
                              [s for _, s in holes]))
     return out

@@ -32,12 +32,14 @@ from pathlib import Path
 
 from rap.cad.drawing import UNITS_MM, Drawing, DrawnPath, Point, Problem, Source
 
-__all__ = ["read_svg", "PHYSICAL_MM"]
+__all__ = ["read_svg", "PHYSICAL_MM", "CSS_PX_MM"]
 
 #: physical units of a root width/height, in millimetres
 PHYSICAL_MM = {"mm": 1.0, "cm": 10.0, "in": 25.4, "pt": 25.4 / 72, "pc": 25.4 / 6, "q": 0.25}
 
 _LENGTH = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([a-zA-Z%]*)\s*$")
+#: a CSS pixel (SVG's user unit when the document states no physical size), in millimetres
+CSS_PX_MM = 25.4 / 96
 _MAX_STEPS = 4096  # chords per segment (a curve this fine needs a coarser tolerance)
 
 
@@ -46,6 +48,12 @@ def _physical(text) -> str | None:
     if m and m.group(2).lower() in PHYSICAL_MM:
         return m.group(2)
     return None
+
+
+def _pixels(text) -> bool:
+    """Is a root width or height a length in CSS px (a bare number, or ``px``)?"""
+    m = _LENGTH.match(str(text)) if text is not None else None
+    return bool(m) and m.group(2).lower() in ("", "px")
 
 
 class _Affine:
@@ -148,14 +156,27 @@ def _subpaths(shape, T: _Affine, tol: float) -> list[tuple[list[list[Point]], bo
     return out
 
 
-def _layer_name(group, order: int) -> str:
+def _layer_name(group, order: int) -> tuple[str, set[str]]:
+    """A top-level group's layer name (its id, else its Inkscape label, else ``g<order>``) and
+    every name ``--layers`` accepts for it (id and label)."""
+    label = None
     for key, value in group.values.items():
         if str(key).endswith("label") and "inkscape" in str(key):
             label = str(value)
             break
-    else:
-        label = None
-    return group.id or label or f"g{order}"
+    name = group.id or label or f"g{order}"
+    return name, {n for n in (name, group.id, label) if n}
+
+
+def _dashed(el) -> bool:
+    """Is the element stroked with dashes (a construction or centre line by drafting custom)?"""
+    dash = el.values.get("stroke-dasharray")
+    return dash is not None and str(dash).strip().lower() not in ("", "none", "0")
+
+
+#: SVG elements that draw something but no part's outline: counted when left out
+_DRAWN_TAGS = frozenset({"text", "image", "tspan", "textPath", "foreignObject", "pattern",
+                         "marker", "symbol"})
 
 
 def read_svg(path: str | Path, unit: str, tol: float, scale: float | None = None) -> Drawing:
@@ -186,12 +207,21 @@ def read_svg(path: str | Path, unit: str, tol: float, scale: float | None = None
         f = PHYSICAL_MM[physical.lower()] / px / UNITS_MM[unit]
         T = _Affine(f, 0, 0, -f, 0, 0)
         note = f"width {width}, height {height}" + ("" if physical == unit else f" -> {unit}")
-    else:
-        raise Problem(f"<svg>: no physical units (width={width!r}, height={height!r}: no mm, "
-                      f"cm, in, pt or pc); give the scale, e.g. `rap-farm import DRAWING.svg "
-                      f"--scale 1 -o ASSEMBLY.json` for 1 {unit} per SVG user unit")
+    elif _pixels(width) or _pixels(height):  # a size in CSS px: 96 per inch
+        f = CSS_PX_MM / UNITS_MM[unit]
+        T = _Affine(f, 0, 0, -f, 0, 0)
+        note = (f"width {width}, height {height} in CSS px (no physical unit): 1 px read as "
+                f"{f:.6g} {unit} (--scale to change)")
+    else:  # no size at all (or a percentage): a user unit is a CSS px
+        vb = se.Matrix(svg.viewbox_transform) if svg.viewbox_transform else se.Matrix()
+        inv = ~vb
+        f = CSS_PX_MM / UNITS_MM[unit]
+        T = _Affine(f * inv.a, -f * inv.b, f * inv.c, -f * inv.d, f * inv.e, -f * inv.f)
+        note = (f"no physical width or height ({width!r}): a user unit read as a CSS px, "
+                f"{f:.6g} {unit} (--scale to change)")
     paths: list[DrawnPath] = []
     ignored: Counter = Counter()
+    names: dict[str, set[str]] = {}
     order = 0
 
     def walk(group, layer: str | None) -> None:
@@ -199,15 +229,25 @@ def read_svg(path: str | Path, unit: str, tol: float, scale: float | None = None
         for el in group:
             order += 1
             if isinstance(el, se.Group):
-                walk(el, layer if layer is not None else _layer_name(el, order))
+                if layer is None:
+                    name, aliases = _layer_name(el, order)
+                    names[name] = aliases
+                    walk(el, name)
+                else:
+                    walk(el, layer)
+            elif isinstance(el, se.Use):  # a clone: svgelements resolved it, transforms applied
+                walk(el, layer)
             elif isinstance(el, se.Shape):
                 tag = str(el.values.get("tag", type(el).__name__.lower()))
                 ident = el.id if el.id else None
+                dashed = _dashed(el)
                 for k, (pieces, closed) in enumerate(_subpaths(el, T, tol)):
                     paths.append(DrawnPath(pieces, Source("svg", tag, ident, layer, order, k),
-                                           closed))
-            elif not isinstance(el, (se.SVG,)):
-                ignored[str(getattr(el, "values", {}).get("tag", type(el).__name__.lower()))] += 1
+                                           closed, "dashed line" if dashed else None))
+            elif not isinstance(el, se.SVG):
+                tag = str(getattr(el, "values", {}).get("tag", type(el).__name__.lower()))
+                if tag in _DRAWN_TAGS:  # metadata, namespaced editor data: not drawing at all
+                    ignored[(tag, layer)] += 1
 
     walk(svg, None)
-    return Drawing(paths, note, ignored)
+    return Drawing(paths, note, ignored, names)

@@ -1,9 +1,10 @@
 """``rap-farm import DRAWING.dxf|DRAWING.svg -o ASSEMBLY.json``: a CAD drawing as an assembly file.
 
 Options: ``--units`` (the output unit: mm, cm, m, in; default mm), ``--tolerance`` (the chordal
-tolerance and grid step, in that unit; default 0.01), ``--parts loop|layer`` (a part per closed
-loop, or per DXF layer / SVG top-level group), ``--scale S`` (output units per SVG user unit, for
-an SVG without physical units). The work is ``rap.cad.import_drawing``; this module checks the
+tolerance and grid step, in that unit; default 0.01), ``--parts auto|face|loop|layer`` (default
+auto: annotations left out, a part per closed loop or per face of cut lines), ``--scale S``
+(output units per SVG user unit; default a CSS px where the SVG states no physical size),
+``--layers A,B`` and ``--skip-layers C`` (DXF layers, SVG top-level groups). The work is ``rap.cad.import_drawing``; this module checks the
 options, writes the validated assembly atomically (a temporary file beside it, fsync'ed, with the
 user's umask, renamed into place: the file appears whole or not at all) and prints the summary.
 Exit status 2 with one line for a bad drawing or option (nothing is written), 3 when the file
@@ -64,12 +65,21 @@ def import_command(
     tolerance: str = typer.Option("0.01", "--tolerance",
                                   help="Chordal tolerance and coordinate grid, in the output "
                                        "unit (>= 0.000001); gaps up to it are closed."),
-    parts: str = typer.Option("loop", "--parts",
-                              help="A part per closed loop (loops inside loops are holes), or "
-                                   "per layer (DXF layer, SVG top-level group)."),
+    parts: str = typer.Option("auto", "--parts",
+                              help="auto: annotations left out, then a part per closed loop "
+                                   "(loops inside loops are holes) or per face where cut lines "
+                                   "are drawn once; face: faces always; loop: every path, a "
+                                   "part per closed loop; layer: a part per layer (DXF layer, "
+                                   "SVG top-level group)."),
     scale: Optional[float] = typer.Option(None, "--scale",
-                                          help="Output units per SVG user unit (needed for an "
-                                               "SVG without physical units)."),
+                                          help="Output units per SVG user unit (default for an "
+                                               "SVG without physical units: a CSS px, 1/96 in)."),
+    layers: Optional[str] = typer.Option(None, "--layers",
+                                         help="Read only these layers (DXF layers, SVG "
+                                              "top-level groups by id or Inkscape label), "
+                                              "comma-separated."),
+    skip_layers: Optional[str] = typer.Option(None, "--skip-layers",
+                                              help="Leave these layers out, comma-separated."),
 ) -> None:
     """Import a DXF or SVG drawing of planar parts as an exact, validated assembly file."""
     from rap.cad import ImportOptions, import_drawing
@@ -77,8 +87,12 @@ def import_command(
 
     if out.suffix.lower() != ".json":
         raise InputError(f"--out {out}: must end in .json")
-    options = ImportOptions(units=units, tolerance=tolerance, parts=parts, scale=scale)
-    with flags("units", "tolerance", "parts", "scale"):  # the library names the options
+    from rap.cad.layers import parse_layer_list
+
+    options = ImportOptions(units=units, tolerance=tolerance, parts=parts, scale=scale,
+                            layers=parse_layer_list(layers),
+                            skip_layers=parse_layer_list(skip_layers))
+    with flags("units", "tolerance", "parts", "scale", "layers", "skip-layers"):
         result = import_drawing(drawing, options)
     write_assembly_json(result.assembly, out)
     typer.echo(f"wrote {out}: {result.summary()}")

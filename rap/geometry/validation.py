@@ -127,16 +127,33 @@ def point_in_ring(p: Sequence[int], ring: Sequence[IVec]) -> int:
     return 1 if inside else -1
 
 
+def _segment_boxes(ring) -> np.ndarray:
+    """(n, 4) float boxes (xmin, ymin, xmax, ymax) of a ring's edges, widened by one unit and
+    the floats' relative rounding, so that a box test never drops a pair of edges that meet."""
+    pts = np.array(ring, dtype=float)
+    nxt = np.roll(pts, -1, axis=0)
+    lo, hi = np.minimum(pts, nxt), np.maximum(pts, nxt)
+    pad = 1.0 + 1e-12 * np.maximum(np.abs(lo), np.abs(hi))
+    return np.hstack([lo - pad, hi + pad])
+
+
 def _rings_meet(r1, r2) -> bool:
+    """Do two rings' boundaries share a point? (exact; edges paired by a float box filter
+    first, in blocks, so the cost is O(n1 n2 / 256) numpy work plus exact tests on the edge
+    pairs whose boxes meet)"""
+    b1, b2 = _bbox(r1), _bbox(r2)
+    if b1[2] < b2[0] or b2[2] < b1[0] or b1[3] < b2[1] or b2[3] < b1[1]:
+        return False
     n1, n2 = len(r1), len(r2)
-    b2 = _bbox(r2)
-    for i in range(n1):
-        a, b = r1[i], r1[(i + 1) % n1]
-        if max(a[0], b[0]) < b2[0] or min(a[0], b[0]) > b2[2] or max(a[1], b[1]) < b2[1] \
-                or min(a[1], b[1]) > b2[3]:
-            continue
-        for j in range(n2):
-            if segments_intersect(a, b, r2[j], r2[(j + 1) % n2]):
+    s1, s2 = _segment_boxes(r1), _segment_boxes(r2)
+    for start in range(0, n1, 256):
+        blk = s1[start:start + 256]
+        hit = ((blk[:, None, 0] <= s2[None, :, 2]) & (s2[None, :, 0] <= blk[:, None, 2])
+               & (blk[:, None, 1] <= s2[None, :, 3]) & (s2[None, :, 1] <= blk[:, None, 3]))
+        for i, j in zip(*np.nonzero(hit)):
+            i = int(i) + start
+            j = int(j)
+            if segments_intersect(r1[i], r1[(i + 1) % n1], r2[j], r2[(j + 1) % n2]):
                 return True
     return False
 

@@ -46,7 +46,6 @@ BAD = [
                                   "self-intersection near (3.33333, 3.33333)"]),
     ("overlap", overlap, ["layer 'a'", "layer 'b'", "parts 'a' and 'b' overlap"]),
     ("noloop", no_loop, ["no closed loop found", "1 TEXT"]),
-    ("unitless", F.SVG_UNITLESS, ["<svg>: no physical units", "--scale"]),
 ]
 
 
@@ -74,7 +73,9 @@ def test_bad_options_are_one_line(run_cli, tmp_path):
                                       "assembly files (at most 6 digits after the point)"),
             (["--tolerance", "abc"], "--tolerance 'abc': not a number"),
             (["--units", "furlong"], "--units 'furlong': choose one of mm, cm, m, in"),
-            (["--parts", "blob"], "--parts 'blob': choose loop or layer"),
+            (["--parts", "blob"], "--parts 'blob': choose one of auto, loop, layer, face"),
+            (["--layers", "nope"], "--layers 'nope': no such layer in the drawing (layers: A, "
+                                   "B)"),
             (["--scale", "-1"], "--scale -1.0: must be a positive number")):
         code, _, err = run_cli("import", path, "-o", tmp_path / "o.json", *args)
         assert code == 2 and err == f"rap-farm: error: {message}\n", err
@@ -87,7 +88,7 @@ def test_import_writes_the_assembly_and_prints_the_summary(run_cli, tmp_path):
     out = tmp_path / "sub" / "gap.json"
     code, stdout, err = run_cli("import", path, "-o", out, "--tolerance", "0.01")
     assert code == 0, err
-    assert "1 parts (0 holes), 3 vertices, 1 gaps closed, unit mm" in stdout
+    assert "1 parts (0 holes) as loops, 3 vertices, 1 gaps closed, unit mm" in stdout
     assert "tolerance 0.01 mm" in stdout
     doc = json.loads(out.read_text())
     assert doc["name"] == "small_gap" and doc["parts"][0]["polygon"] == [[0, 0], [10, 0], [0, 10]]
@@ -110,8 +111,8 @@ def test_other_commands_take_the_drawing(run_cli, tmp_path):
     code, _, err = run_cli("show", F.write(tmp_path, "touch.svg", F.SVG_TOUCHING_ARC), "-o",
                            tmp_path / "touch.png")
     assert code == 0 and (tmp_path / "touch.png").stat().st_size > 0, err
-    code, _, err = run_cli("inspect", F.write(tmp_path, "plain.svg", F.SVG_UNITLESS))
-    assert code == 2 and "no physical units" in err
+    code, out, err = run_cli("inspect", F.write(tmp_path, "plain.svg", F.SVG_UNITLESS))
+    assert code == 0 and "r" in out, err  # no physical size: a user unit is a CSS px
 
 
 @pytest.mark.slow

@@ -51,10 +51,13 @@ def test_output_in_inches(tmp_path):
                                   (1, Fraction(-1, 2))}
 
 
-def test_an_svg_without_physical_units_needs_a_scale(tmp_path):
+def test_an_svg_without_physical_units_reads_css_pixels_or_the_scale(tmp_path):
     path = F.write(tmp_path, "plain.svg", F.SVG_UNITLESS)
-    with pytest.raises(DrawingError, match=r"plain\.svg: <svg>: no physical units .*--scale"):
-        import_drawing(path)
+    # width 200 (px) over a 100-unit viewBox: 2 px per user unit, a px is 25.4/96 mm
+    result = import_drawing(path)
+    assert "CSS px" in result.unit_note and "--scale" in result.unit_note
+    (part,) = result.assembly.parts
+    assert float(max(x for x, _ in part.outer)) == pytest.approx(20 * 25.4 / 96, abs=0.01)
     # --scale is output units per SVG user unit: the viewBox's mapping (2 px each) is undone
     (part,) = parts(path, scale=2.0).values()
     assert set(part.outer) == {(0, 0), (20, 0), (20, -10), (0, -10)}

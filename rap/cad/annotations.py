@@ -1,0 +1,275 @@
+"""What in a drawing is not a part's outline: the paths an import leaves out, and why.
+
+``sort_out(paths, tol) -> Sorting`` keeps the paths that can bound a part and counts the rest by
+kind and layer, so that an annotation never stops an import. Rules, in order; each one is a
+drafting convention, and each left-out path is reported (``Sorting.left_out``):
+
+1. *construction*: a path drawn in a centre, hidden, phantom or dashed linetype (DXF) or with a
+   stroke-dasharray (SVG) is a construction line, never an outline (``DrawnPath.construction``);
+2. *open paths that bound nothing*: an open path with an end that meets no other kept path within
+   the tolerance (not another path's end, not a point on another path: a T-junction meets) is a
+   dimension, leader, hatch or construction line. Removing one can free another's end, so the
+   rule repeats until nothing changes. A cut line that ends on a border or on another cut stays;
+3. *loops*: closed paths, and loose paths joined end to end within their layer as
+   ``rap.cad.loops.join_loops`` joins them; loose paths that do not all join (a branch, an end
+   on another path's span) are a network of cut lines (``Sorting.networks``). Loops are then
+   nested (a loop's *depth*: how many other loops hold it);
+4. *drawn twice*: of two loops with the same outline (within the tolerance) at an even depth (a
+   shape drawn once filled and once stroked), the later one is left out. At an odd depth they are a
+   hole and the peg in it, and both stay;
+5. *outlines of the parts' union*: a loop at an even depth whose inside is covered, to within the
+   tolerance or 2% of its size, by two or more other loops, is a target outline or a sheet's
+   border drawn again: left out;
+6. *frames*: a loop at an even depth that holds loops touching each other (parts, not holes) and
+   touches none of them is a frame drawn around the parts: left out;
+7. *symbols*: a loop crossed end to end by a construction line (a scale or datum symbol: a box and
+   its centre lines), holding nothing else, is left out.
+
+Geometry here is floats (shapely), as the drawing's own coordinates are: these rules choose which
+paths to read, and every kept path is then snapped and checked exactly. Cost: an STR-tree over the
+paths, O(P log P) for P paths per repetition of rule 2; rules 4-7 compare each loop with the
+loops near it.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+from rap.cad.drawing import DrawnPath, distance
+
+__all__ = ["Sorting", "sort_out", "path_line", "loop_polygon"]
+
+
+@dataclass
+class Sorting:
+    """The paths kept (file order), those left out counted by ``(kind, layer)``, and whether
+    the kept paths include networks of cut lines (so faces, not loops, make the parts)."""
+
+    kept: list[DrawnPath]
+    left_out: Counter = field(default_factory=Counter)
+    networks: bool = False
+    #: kept loops at an even depth: the parts the loops make (when there are no networks)
+    loop_parts: int = 0
+
+
+def _points(path: DrawnPath) -> list:
+    pts = [path.pieces[0][0]]
+    for piece in path.pieces:
+        pts.extend(piece[1:])
+    return pts
+
+
+def path_line(path: DrawnPath):
+    """The path as a shapely LineString (floats)."""
+    import shapely
+
+    pts = _points(path)
+    return shapely.LineString(pts if len(pts) >= 2 else pts * 2)
+
+
+def loop_polygon(path_or_points):
+    """The polygon a closed path (or point list) bounds, repaired to a valid shapely polygon
+    (a self-touching flattening is still the shape the user drew)."""
+    import shapely
+
+    pts = path_or_points if isinstance(path_or_points, list) else _points(path_or_points)
+    if len(pts) < 3:
+        return shapely.Polygon()
+    poly = shapely.Polygon(pts)
+    if not poly.is_valid:  # e.g. an outline pinched to a point: its polygonal part, whole
+        fixed = shapely.make_valid(poly)
+        polys = [g for g in shapely.get_parts(fixed) if g.geom_type in ("Polygon",
+                                                                          "MultiPolygon")]
+        poly = shapely.union_all(polys) if polys else shapely.Polygon()
+    return poly
+
+
+def _is_closed(path: DrawnPath, tol: float) -> bool:
+    single = len(path.pieces) == 1 and len(path.pieces[0]) < 3
+    return not single and (path.closed or distance(path.start, path.end) <= tol)
+
+
+def _free_ends(paths: list[DrawnPath], kept: list[bool], tol: float) -> set[int]:
+    """Indices of kept open paths with an end that meets no other kept path."""
+    import numpy as np
+    import shapely
+
+    idx = [i for i, k in enumerate(kept) if k]
+    lines = [path_line(paths[i]) for i in idx]
+    tree = shapely.STRtree(lines)
+    ends, owner = [], []
+    for j, i in enumerate(idx):
+        p = paths[i]
+        if _is_closed(p, tol):
+            continue
+        ends += [p.start, p.end]
+        owner += [j, j]
+    if not ends:
+        return set()
+    pts = shapely.points(np.array(ends, dtype=float))
+    hits = tree.query(pts, predicate="dwithin", distance=tol)
+    met = [False] * len(ends)
+    for e, g in zip(*hits):
+        if g != owner[e]:
+            met[e] = True
+    return {idx[owner[e]] for e in range(len(ends)) if not met[e]}
+
+
+@dataclass
+class _Loop:
+    members: list[int]  # path indices
+    polygon: object
+    depth: int = 0
+    order: int = 0
+
+
+def _loops(paths: list[DrawnPath], kept: list[bool], tol: float) -> tuple[list[_Loop], bool]:
+    """The kept paths' loops (closed paths, and loose paths joined), and whether the loose
+    paths are a network of cut lines instead (they do not all join into loops)."""
+    loops: list[_Loop] = []
+    open_idx = []
+    for i, p in enumerate(paths):
+        if not kept[i]:
+            continue
+        if _is_closed(p, tol):
+            loops.append(_Loop([i], loop_polygon(p), order=p.source.order))
+        else:
+            open_idx.append(i)
+    if open_idx:  # loose paths make loops exactly when the loop builder joins them all
+        from rap.cad.drawing import Problem
+        from rap.cad.loops import join_loops
+
+        by_source = {id(paths[i].source): i for i in open_idx}
+        try:
+            joined = join_loops([paths[i] for i in open_idx], tol, "")
+        except Problem:
+            return loops, True
+        for lp in joined:
+            pts = [lp.pieces[0][0][0]] + [q for pc, _ in lp.pieces for q in pc[1:]]
+            members = sorted({by_source[id(src)] for _, src in lp.pieces if id(src) in by_source})
+            loops.append(_Loop(members, loop_polygon(pts), order=lp.source.order))
+    loops.sort(key=lambda lp: lp.order)
+    return loops, False
+
+
+def _depths(loops: list[_Loop]) -> None:
+    import shapely
+
+    polys = [lp.polygon for lp in loops]
+    tree = shapely.STRtree(polys)
+    for k, lp in enumerate(loops):
+        if lp.polygon.is_empty:
+            continue
+        point = lp.polygon.representative_point()
+        lp.depth = sum(1 for j in tree.query(point, predicate="intersects")
+                       if j != k and polys[j].area > lp.polygon.area
+                       and polys[j].contains(point))
+
+
+def _same(a, b, slack: float) -> bool:
+    """Are two shapes' boundaries within ``slack`` of each other everywhere (Hausdorff distance
+    of the boundaries, densified so that it measures along edges, not only at vertices)?"""
+    if a.is_empty or b.is_empty:
+        return False
+    # cheap necessary conditions first: boxes within slack, areas within slack times perimeter
+    if max(abs(u - v) for u, v in zip(a.bounds, b.bounds)) > slack:
+        return False
+    if abs(a.area - b.area) > slack * max(a.length, b.length):
+        return False
+    return shapely_hausdorff(a.boundary, b.boundary) <= slack
+
+
+def _closed_union(polygons: list, slack: float):
+    """The union of hand-placed pieces with the hairline gaps between them (narrower than
+    ``slack``) closed and the holes left inside filled: the outline a person sees."""
+    import shapely
+
+    grown = shapely.union_all([p.buffer(slack / 2, join_style="mitre") for p in polygons])
+    shrunk = grown.buffer(-slack / 2, join_style="mitre")
+    return shapely.union_all([shapely.Polygon(g.exterior) for g in shapely.get_parts(shrunk)
+                              if g.geom_type == "Polygon"])
+
+
+def shapely_hausdorff(a, b) -> float:
+    import shapely
+
+    return float(shapely.hausdorff_distance(a, b, densify=0.05))
+
+
+def _slack(poly, tol: float) -> float:
+    return max(2 * tol, 0.02 * poly.area ** 0.5)
+
+
+def sort_out(paths: list[DrawnPath], tol: float) -> Sorting:
+    """Keep the paths that can bound a part (see the module doc)."""
+    import shapely
+
+    left: Counter = Counter()
+    kept = [p.construction is None for p in paths]
+    for p in paths:
+        if p.construction is not None:
+            left[(p.construction, p.source.layer)] += 1
+    while True:  # rule 2, until nothing changes
+        free = _free_ends(paths, kept, tol)
+        if not free:
+            break
+        for i in free:
+            kept[i] = False
+            left[("open path", paths[i].source.layer)] += 1
+    loops, network = _loops(paths, kept, tol)
+    _depths(loops)
+
+    def drop(lp: _Loop, why: str) -> None:
+        for i in lp.members:
+            kept[i] = False
+        left[(why, paths[lp.members[0]].source.layer)] += 1
+
+    alive = [lp for lp in loops if not lp.polygon.is_empty]
+    tree = shapely.STRtree([lp.polygon for lp in alive]) if alive else None
+    gone: set[int] = set()
+    for k, lp in enumerate(alive):  # rules 4 and 5
+        if lp.depth % 2 or k in gone:
+            continue
+        near = [j for j in tree.query(lp.polygon.buffer(_slack(lp.polygon, tol)),
+                                      predicate="contains")
+                if j != k and j not in gone]
+        twins = [j for j in near if alive[j].depth == lp.depth
+                 and _same(lp.polygon, alive[j].polygon, 2 * tol)]
+        if any(j < k for j in twins):
+            drop(lp, "shape drawn twice")
+            gone.add(k)
+            continue
+        inside = [j for j in near if j not in twins and alive[j].depth == lp.depth + 1]
+        if len(inside) >= 2:
+            union = _closed_union([alive[j].polygon for j in inside], _slack(lp.polygon, tol))
+            if _same(lp.polygon, union, _slack(lp.polygon, tol)):
+                drop(lp, "outline of the parts' union")
+                gone.add(k)
+                for j in inside:
+                    alive[j].depth -= 1
+                continue
+            if not any(lp.polygon.exterior.distance(alive[j].polygon) <= tol for j in inside) \
+                    and any(alive[a].polygon.distance(alive[b].polygon) <= tol
+                            for a in inside for b in inside if a < b):
+                drop(lp, "frame")
+                gone.add(k)
+                continue
+    construction = [path_line(p) for p in paths if p.construction is not None]
+    if construction:  # rule 7
+        for k, lp in enumerate(alive):
+            if k in gone or lp.polygon.is_empty:
+                continue
+            ring = lp.polygon.exterior
+            crossed = any(ring.distance(shapely.Point(c.coords[0])) <= tol
+                          and ring.distance(shapely.Point(c.coords[-1])) <= tol
+                          and lp.polygon.contains(c.interpolate(0.5, normalized=True))
+                          for c in construction)
+            holds = any(j != k and j not in gone and lp.polygon.contains(alive[j].polygon)
+                        for j in range(len(alive)))
+            if crossed and not holds:
+                drop(lp, "symbol")
+                gone.add(k)
+    kept_paths = [p for p, k in zip(paths, kept) if k]
+    outlines = sum(1 for k, lp in enumerate(alive) if k not in gone and lp.depth % 2 == 0)
+    return Sorting(kept_paths, left, network, outlines)
