@@ -9,9 +9,11 @@ float paths in the output unit), ``loops`` (joining paths into closed loops), ``
 boundaries: ends merged into nodes, one geometry per edge, T-junctions split), ``rings`` (exact
 rings on the grid, shared boundaries given the same vertices, checked simple), ``parts`` (holes by
 containment, parts per loop or per layer), ``snap`` (the tolerance grid), ``layers`` (``--layers``,
-``--skip-layers``), ``annotations`` (what is not a part's outline: construction and dimension
-lines, symbols, frames, outlines drawn again), ``faces`` (parts as the faces of cut lines drawn
-once, noded with snap rounding), ``importer`` (the pipeline and validation).
+``--skip-layers``), ``importer`` (the pipeline and validation); the room ``arrangement`` holds
+what loops alone do not explain: ``annotations`` (what is not a part's outline: construction and
+dimension lines, symbols, frames, outlines drawn again), ``faces`` (parts as the faces of cut
+lines drawn once, noded with snap rounding), ``overlay`` (hand-placed loops overlapping by less
+than the tolerance).
 
 Layer: above ``rap.assembly`` and ``rap.geometry``, beside ``rap.io`` (which imports it lazily);
 no ray, torch or rendering. ezdxf and svgelements are imported inside the readers.

@@ -134,7 +134,7 @@ def _plural(kind: str) -> str:
     if kind.isupper() or kind.endswith("s"):
         return kind
     words = kind.split(" ")
-    k = next((i for i, w in enumerate(words) if w in ("drawn", "of", "on")), len(words)) - 1
+    k = next((i for i, w in enumerate(words) if w in ("drawn", "of", "on", "not")), len(words)) - 1
     words[k] += "s"
     return " ".join(words)
 

@@ -23,6 +23,7 @@ read. ``ImportResult.summary()`` is the line ``rap-farm import`` prints.
 from __future__ import annotations
 
 import re
+import time
 from collections import Counter
 from dataclasses import dataclass, field, replace
 from decimal import Decimal
@@ -160,10 +161,12 @@ def _validated(doc: dict, source: str, parts: list[ExactPart], grid: Grid, unit:
         m = _OVERLAP.match(exc.problem)
         other = by_id.get(m.group(1)) if m else None
         if other is not None:
-            return DrawingError(source, f"{part.source.describe()} and "
+            err = DrawingError(source, f"{part.source.describe()} and "
                                         f"{other.source.describe()}: parts {part.id!r} and "
                                         f"{other.id!r} overlap "
                                         f"{_overlap(part, other, grid, unit)}")
+            err.overlap_layer = part.layer if part.layer == other.layer else None
+            return err
         def hole(m: re.Match) -> str:
             k = int(m.group(1))
             return f"the hole {part.hole_sources[k].describe()}" if k < len(part.hole_sources) \
@@ -183,6 +186,8 @@ def _validated(doc: dict, source: str, parts: list[ExactPart], grid: Grid, unit:
     return assembly
 
 
+#: an import slower than this is not tried again to check the tolerance a refusal names
+_HINT_BUDGET_S = 2.0
 _HINT = re.compile(r" \(--tolerance (\S+) absorbs an overlap this thin\)")
 
 
@@ -192,23 +197,36 @@ def import_drawing(path: str | Path, options: ImportOptions = ImportOptions()) -
     A refusal that names a ``--tolerance`` has been checked: the import was tried again with it
     and succeeded; where it did not, the refusal says that no tolerance that small merges the
     overlap (so no message names a flag that would not work)."""
+    started = time.perf_counter()
     try:
         return _import(path, options)
     except DrawingError as exc:
         m = _HINT.search(exc.problem)
         if m is None:
             raise
+        if time.perf_counter() - started > _HINT_BUDGET_S:  # too large to try again and again
+            raise DrawingError(exc.source, _HINT.sub(" (a coarser --tolerance may absorb it; "
+                                                     "not tried on a drawing this large)",
+                                                     exc.problem)) from None
         first = float(m.group(1))
-        for tolerance in (first, _nice_above(2.01 * first), _nice_above(4.01 * first)):
+        tolerances = (first, _nice_above(2.01 * first), _nice_above(4.01 * first))
+        layer = getattr(exc, "overlap_layer", None)
+        tries = [(t, None) for t in tolerances]
+        if layer is not None and not options.layers:
+            tries += [(t, layer) for t in tolerances]
+        for tolerance, only in tries:
+            flags = (f"--layers {only} " if only else "") + f"--tolerance {tolerance:g}"
             try:
-                got = _import(path, replace(options, tolerance=f"{tolerance:g}"))
+                got = _import(path, replace(options, tolerance=f"{tolerance:g}",
+                                            layers=(only,) if only else options.layers))
             except (DrawingError, ParameterError):
                 continue
-            if got.made_by == "loops" and len(got.assembly) == getattr(exc, "parts", -1):
-                raise DrawingError(exc.source, _HINT.sub(
-                    f" (--tolerance {tolerance:g} absorbs the overlaps)", exc.problem)) from None
+            if got.made_by.startswith("loops") and len(got.assembly) == getattr(exc, "parts",
+                                                                                  -1):
+                raise DrawingError(exc.source, _HINT.sub(f" ({flags} absorbs the overlaps)",
+                                                         exc.problem)) from None
         raise DrawingError(exc.source, _HINT.sub(
-            f": the pieces overlap as drawn (no --tolerance up to {_nice_above(4.01 * first):g} "
+            f": the pieces overlap as drawn (no --tolerance up to {tolerances[-1]:g} "
             f"merges them into as many parts)", exc.problem)) from None
 
 
@@ -233,7 +251,7 @@ def _import(path: str | Path, options: ImportOptions) -> ImportResult:
             found = left_out_text(ignored) or "nothing"
             raise Problem(f"no closed loop found: no lines, arcs, circles, ellipses, splines, "
                           f"polylines or paths (found {found})")
-        parts, gaps, made_by = _parts(paths, grid, options, ignored)
+        parts, gaps, made_by, kept = _parts(paths, grid, options, ignored)
     except Problem as exc:
         raise DrawingError(source, str(exc)) from None
     doc = assembly_document(path.stem or "drawing", parts, grid, options.units)
@@ -241,7 +259,16 @@ def _import(path: str | Path, options: ImportOptions) -> ImportResult:
         assembly = _validated(doc, source, parts, grid, options.units)
     except DrawingError as exc:
         exc.parts = len(parts)  # what a tolerance that absorbs an overlap must keep
-        raise
+        if made_by != "loops" or options.parts != "auto":
+            raise
+        try:  # pieces placed by hand, overlapping by a hair: give each overlap to one piece
+            parts = _overlay(kept, grid, options)
+            assembly = _validated(assembly_document(path.stem or "drawing", parts, grid,
+                                                    options.units), source, parts, grid,
+                                  options.units)
+        except (Problem, DrawingError):
+            raise exc from None
+        made_by = OVERLAID
     by_layer = Counter(p.layer for p in parts if p.layer is not None)
     return ImportResult(assembly, gaps, options.units, grid.step, drawing.unit_note,
                         dict(ignored), made_by, dict(by_layer))
@@ -280,13 +307,24 @@ def _open_loop_gap(paths, grid: Grid, options: ImportOptions) -> None:
                           f"closes it") from None
 
 
+#: how parts were made when hand-placed loops overlapped by at most the tolerance
+OVERLAID = "loops, overlaps within the tolerance given to the earlier piece"
+
+
+def _overlay(kept, grid: Grid, options: ImportOptions):
+    from rap.cad.arrangement.overlay import overlay_parts
+
+    return overlay_parts(join_loops(kept, grid.step_float, options.units), grid, options.units)
+
+
 def _parts(paths, grid: Grid, options: ImportOptions, ignored: Counter):
-    """(parts, gaps closed, how they were made) for the chosen mode (see ``ImportOptions``)."""
+    """(parts, gaps closed, how they were made, the paths read) for the chosen mode (see
+    ``ImportOptions``)."""
     if options.parts in ("loop", "layer"):
         parts, gaps = _loop_parts(paths, grid, options, options.parts)
-        return parts, gaps, f"{options.parts}s"
-    from rap.cad.annotations import sort_out
-    from rap.cad.faces import face_parts
+        return parts, gaps, f"{options.parts}s", paths
+    from rap.cad.arrangement.annotations import sort_out
+    from rap.cad.arrangement.faces import face_parts
 
     sorting = sort_out(paths, grid.step_float)
     ignored.update(sorting.left_out)
@@ -295,17 +333,23 @@ def _parts(paths, grid: Grid, options: ImportOptions, ignored: Counter):
         raise Problem(f"no part found: every path is an annotation (left out: "
                       f"{left_out_text(ignored)}); choose layers with --layers, or "
                       f"--parts loop to read every path")
+    kept = sorting.kept
     if options.parts == "face" or sorting.networks:
-        parts, gaps = face_parts(sorting.kept, grid)
-        return parts, gaps, "faces"
+        parts, gaps = face_parts(kept, grid)
+        return parts, gaps, "faces", kept
     try:
-        parts, gaps = _loop_parts(sorting.kept, grid, options, "loop")
-        return parts, gaps, "loops"
+        parts, gaps = _loop_parts(kept, grid, options, "loop")
+        return parts, gaps, "loops", kept
     except Problem as exc:  # a crossing made by rounding: snap rounding keeps rings simple
         if "self-intersection" not in str(exc):
             raise
-        parts, gaps = face_parts(sorting.kept, grid)
-        if len(parts) != sorting.loop_parts:  # a loop that crosses itself, not a rounding
-            raise Problem(f"{exc}; as a cut path its crossings bound {len(parts)} faces: "
-                          f"--parts face reads them as parts") from None
-        return parts, gaps, "faces"
+        parts, gaps = face_parts(kept, grid)
+        if len(parts) == sorting.loop_parts:
+            return parts, gaps, "faces", kept
+        try:  # hand-placed pieces whose nodes merged across a hair's overlap
+            return _overlay(kept, grid, options), 0, OVERLAID, kept
+        except Problem:  # a loop that crosses itself, not a rounding
+            if len(kept) == 1:  # one stroke drawing every cut
+                raise Problem(f"{exc}; as a cut path its crossings bound {len(parts)} faces: "
+                              f"--parts face reads them as parts") from None
+            raise

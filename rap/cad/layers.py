@@ -69,5 +69,5 @@ def choose_layers(drawing: Drawing, layers: tuple[str, ...] | None,
         else:
             out.append(p)
     for layer, n in skipped.items():
-        drawing.ignored[("paths on a layer not chosen", layer)] += n
+        drawing.ignored[("path not chosen", layer)] += n
     return out

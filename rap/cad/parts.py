@@ -34,7 +34,8 @@ from rap.cad.rings import ExactRing
 from rap.geometry.exact import orient
 from rap.geometry.validation import point_in_ring
 
-__all__ = ["ExactPart", "interior_point", "nest", "group_parts", "canonical_ring"]
+__all__ = ["ExactPart", "interior_point", "nest", "group_parts", "canonical_ring",
+           "loop_part_ids"]
 
 
 @dataclass
@@ -120,6 +121,25 @@ def _layer_key(ring: ExactRing) -> str:
     return ring.loop.layer if ring.loop.layer is not None else ring.loop.source.name()
 
 
+def loop_part_ids(sources: list[Source]) -> list[str]:
+    """The ids of parts drawn as loops by these entities (in order): the entity's name (DXF
+    layer, SVG id) when it names one part only, else ``NAME:TAG``; unique."""
+    names: dict[str, int] = defaultdict(int)
+    for src in sources:
+        names[_clean_id(src.name())] += 1
+    out: list[str] = []
+    used: set[str] = set()
+    for src in sources:
+        base = _clean_id(src.name())
+        pid = base if names[base] == 1 else _clean_id(f"{base}:{src.tag()}")
+        k = 2
+        while pid in used:
+            pid, k = _clean_id(f"{base}:{src.tag()}.{k}"), k + 1
+        used.add(pid)
+        out.append(pid)
+    return out
+
+
 def group_parts(rings: list[ExactRing], by: str = "loop") -> list[ExactPart]:
     """The parts of the rings, per loop or per layer (see the module doc)."""
     if by not in ("loop", "layer"):
@@ -153,19 +173,12 @@ def group_parts(rings: list[ExactRing], by: str = "loop") -> list[ExactPart]:
             parts.append((members[i], [members[h] for h in holes[i]]))
     parts.sort(key=lambda p: rings[p[0]].loop.source.order)
 
-    names: dict[str, int] = defaultdict(int)
-    for outer, _ in parts:
-        names[_clean_id(rings[outer].loop.source.name())] += 1
+    ids = loop_part_ids([rings[outer].loop.source for outer, _ in parts])
     out: list[ExactPart] = []
-    used: set[str] = set()
-    for outer, hole_ids in parts:
+    for (outer, hole_ids), pid in zip(parts, ids):
         src = rings[outer].loop.source
-        base = _clean_id(src.name() if by == "loop" else _layer_key(rings[outer]))
-        pid = base if by == "layer" or names[base] == 1 else _clean_id(f"{base}:{src.tag()}")
-        k = 2
-        while pid in used:
-            pid, k = _clean_id(f"{base}:{src.tag()}.{k}"), k + 1
-        used.add(pid)
+        if by == "layer":
+            pid = _clean_id(_layer_key(rings[outer]))
         holes = sorted(((canonical_ring(rings[h].vertices, ccw=False), rings[h].loop.source)
                         for h in hole_ids), key=lambda hs: hs[0][0])
         out.append(ExactPart(pid, canonical_ring(rings[outer].vertices, ccw=True),

@@ -71,5 +71,18 @@ class Grid:
         """The exact coordinate of index ``k``."""
         return (self.step * k).normalize() if k else Decimal(0)
 
+    def ring(self, coords) -> list[tuple[int, int]]:
+        """The grid indices of a closed ring of float coordinates (the first point repeated
+        last, as shapely gives rings), repeats dropped; for coordinates already on the grid
+        (snap-rounded) this is exact."""
+        ring: list[tuple[int, int]] = []
+        for x, y in list(coords)[:-1]:
+            n = (self.index(x), self.index(y))
+            if not ring or ring[-1] != n:
+                ring.append(n)
+        while len(ring) > 1 and ring[-1] == ring[0]:
+            ring.pop()
+        return ring
+
     def fraction(self, k: int) -> Fraction:
         return Fraction(self.step) * k

@@ -27,6 +27,11 @@ CASES = [  # file, options, parts, holes, total area (mm^2; None: not stated by 
     ("alinen-tangram.svg", {"skip_layers": ("Timebar",)}, 7, 0, (132.28346 * PX) ** 2),
     ("alinen-puzzle-cat.svg", {"tolerance": "0.05", "skip_layers": ("Timebar",)}, 7, 0,
      (169.80684 - 33.529691) ** 2 * PX ** 2),  # its pieces: a square of T1's long side
+    # hand-placed pieces overlapping by tenths of a millimetre: the flags their refusals name
+    ("alinen-puzzle-square.svg", {"tolerance": "0.5", "skip_layers": ("Timebar",)}, 7, 0,
+     ((159.36499 - 23.087838) * PX) ** 2),  # a square of T1's long side
+    ("alinen-tangram-mm-71f613e.svg", {"tolerance": "1", "layers": ("layer2",)}, 7, 0,
+     200.0 ** 2),  # the 200 mm square of its construction layer
     ("elm-logo.svg", {}, 7, 0, None),
     ("penrose-Rh_01.svg", {}, 13, 0, PENROSE_AREA),
     ("neon22-default-jigsaw.svg", {}, 20, 0, None),  # 5 x 4
@@ -46,7 +51,9 @@ def test_a_drawing_imports_into_the_parts_a_person_sees(name, options, n, holes,
     assert len(parts) == n, result.summary()
     assert sum(len(p.holes) for p in parts) == holes
     if area is not None:
-        assert sum(float(p.area()) for p in parts) == pytest.approx(area, rel=2e-3)
+        # hand-placed pieces leave hairline gaps: their sum is their union's area
+        rel = 2e-2 if "tolerance" in options else 2e-3
+        assert sum(float(p.area()) for p in parts) == pytest.approx(area, rel=rel)
 
 
 def test_the_ring_is_the_annulus_less_its_slots():
@@ -67,8 +74,8 @@ def test_the_defaults_say_what_they_left_out_and_which_layers_made_parts():
     ("alinen-puzzle-cat.svg", "(--tolerance 0.05 absorbs the overlaps)"),  # the flag to use
     ("kach-triangle3.svg", "--parts face reads them as parts"),
     ("langmuir-Minimal-intersection-two-squares.dxf", "overlap by 100.00 mm^2, 5.00 mm deep"),
-    ("alinen-puzzle-square.svg", "the pieces overlap as drawn"),  # no tolerance merges them
-    ("alinen-tangram-mm-71f613e.svg", "the pieces overlap as drawn"),
+    ("alinen-puzzle-square.svg", "(--tolerance 0.5 absorbs the overlaps)"),
+    ("alinen-tangram-mm-71f613e.svg", "(--layers layer2 --tolerance 1 absorbs the overlaps)"),
 ])
 def test_a_refusal_is_one_line_naming_the_flag_or_the_overlap(name, what):
     with pytest.raises(DrawingError) as e:

@@ -27,7 +27,7 @@ segments and k crossings, and polygonizing, O(n log n); then O(n) exact conversi
 
 from __future__ import annotations
 
-from rap.cad.annotations import path_line
+from rap.cad.arrangement.annotations import path_line
 from rap.cad.drawing import DrawnPath, Problem, Source, distance
 from rap.cad.parts import ExactPart, canonical_ring
 from rap.cad.snap import Grid
@@ -64,17 +64,6 @@ def _closed_gaps(paths: list[DrawnPath], lines: list, tol: float) -> tuple[list,
     return out, gaps
 
 
-def _indices(coords, grid: Grid) -> list[tuple[int, int]]:
-    ring: list[tuple[int, int]] = []
-    for x, y in list(coords)[:-1]:
-        n = (grid.index(x), grid.index(y))
-        if not ring or ring[-1] != n:
-            ring.append(n)
-    while len(ring) > 1 and ring[-1] == ring[0]:
-        ring.pop()
-    return ring
-
-
 def face_parts(paths: list[DrawnPath], grid: Grid) -> tuple[list[ExactPart], int]:
     """The parts of a drawing as the faces of its arrangement (see the module doc)."""
     import shapely
@@ -101,8 +90,8 @@ def face_parts(paths: list[DrawnPath], grid: Grid) -> tuple[list[ExactPart], int
     for k, (_, _, f) in enumerate(chosen):
         j = int(path_tree.query_nearest(shapely.Point(f.exterior.coords[0]))[0])
         src: Source = paths[j].source
-        outer = _indices(f.exterior.coords, grid)
-        inner = [_indices(h.coords, grid) for h in f.interiors]
+        outer = grid.ring(f.exterior.coords)
+        inner = [grid.ring(h.coords) for h in f.interiors]
         if len(outer) < 3:
             continue
         parts.append(ExactPart(f"piece-{k + 1}", canonical_ring(outer, ccw=True),

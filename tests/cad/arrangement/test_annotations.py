@@ -123,7 +123,7 @@ def test_layers_are_chosen_by_id_or_label(tmp_path):
     path = F.write(tmp_path, "ink.svg", SVG_INKSCAPE)
     only = import_drawing(path, ImportOptions(layers=("Parts",)))
     assert sorted(p.id for p in only.assembly.parts) == ["a", "b"]
-    assert "paths on a layer not chosen" in only.summary()
+    assert "paths not chosen on layer 'layer2'" in only.summary()
     # the outline alone is one part: the user asked for it
     outline = import_drawing(path, ImportOptions(layers=("layer3",)))
     assert [p.id for p in outline.assembly.parts] == ["outline"]
