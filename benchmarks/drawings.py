@@ -20,6 +20,8 @@ from rap.cad import DrawingError, ImportOptions, import_drawing
 
 #: the one flag a refusal may name, as ImportOptions fields
 _FLAGS = (
+    (re.compile(r"\(--layers (\S+) --tolerance (\S+) absorbs"),
+     lambda m: {"layers": (m.group(1),), "tolerance": m.group(2)}),
     (re.compile(r"--tolerance (\S+) absorbs"), lambda m: {"tolerance": m.group(1)}),
     (re.compile(r"--tolerance (\S+) closes"), lambda m: {"tolerance": m.group(1)}),
     (re.compile(r"--parts face reads"), lambda m: {"parts": "face"}),
@@ -48,7 +50,8 @@ def _row(path: Path) -> str:
                     result, seconds = _timed(path, ImportOptions(**options))
                 except DrawingError as again:
                     return f"| {path.name} | refused twice | | | | {again.problem[:120]} | |"
-                flags = " ".join(f"--{k} {v}" for k, v in options.items())
+                flags = " ".join(f"--{k} {','.join(v) if isinstance(v, tuple) else v}"
+                                 for k, v in options.items())
                 break
         else:
             return f"| {path.name} | refused | | | | {exc.problem[:160]} | |"

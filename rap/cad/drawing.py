@@ -111,6 +111,8 @@ class Drawing:
     unit_note: str  # e.g. "$INSUNITS 1 (in) -> mm", "width 100mm -> mm", "--scale 0.5 mm"
     ignored: Counter = field(default_factory=Counter)
     layer_names: dict[str, set[str]] = field(default_factory=dict)
+    #: the page (an SVG's viewport) as (xmin, ymin, xmax, ymax) in output units; None unknown
+    page: tuple[float, float, float, float] | None = None
 
 
 def left_out_text(counts: Counter) -> str:

@@ -250,4 +250,16 @@ def read_svg(path: str | Path, unit: str, tol: float, scale: float | None = None
                     ignored[(tag, layer)] += 1
 
     walk(svg, None)
-    return Drawing(paths, note, ignored, names)
+    return Drawing(paths, note, ignored, names, _page(svg, T))
+
+
+def _page(svg, T: _Affine) -> tuple[float, float, float, float] | None:
+    """The viewport's box in output units (the page a person sees the drawing on)."""
+    try:
+        w, h = float(svg.width), float(svg.height)
+    except (TypeError, ValueError):
+        return None
+    if not (w > 0 and h > 0 and math.isfinite(w) and math.isfinite(h)):
+        return None
+    (x0, y0), (x1, y1) = T((0.0, 0.0)), T((w, h))
+    return (min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1))

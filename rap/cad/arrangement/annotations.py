@@ -23,7 +23,10 @@ drafting convention, and each left-out path is reported (``Sorting.left_out``):
 6. *frames*: a loop at an even depth that holds loops touching each other (parts, not holes) and
    touches none of them is a frame drawn around the parts: left out;
 7. *symbols*: a loop crossed end to end by a construction line (a scale or datum symbol: a box and
-   its centre lines), holding nothing else, is left out.
+   its centre lines), holding nothing else, is left out;
+8. *page bars*: where the page is known (an SVG's viewport), a loop that touches no other loop
+   and runs along the page's whole width (or height) while thinner than a tenth of its height (or
+   width) is page furniture (a title bar, a game's timebar), not a part.
 
 Geometry here is floats (shapely), as the drawing's own coordinates are: these rules choose which
 paths to read, and every kept path is then snapped and checked exactly. Cost: an STR-tree over the
@@ -201,8 +204,18 @@ def _slack(poly, tol: float) -> float:
     return max(2 * tol, 0.02 * poly.area ** 0.5)
 
 
-def sort_out(paths: list[DrawnPath], tol: float) -> Sorting:
-    """Keep the paths that can bound a part (see the module doc)."""
+def _page_bar(poly, page, others: list, tol: float) -> bool:
+    x0, y0, x1, y1 = poly.bounds
+    px0, py0, px1, py1 = page
+    pw, ph = px1 - px0, py1 - py0
+    wide = (x1 - x0) >= 0.99 * pw and (y1 - y0) <= 0.1 * ph
+    tall = (y1 - y0) >= 0.99 * ph and (x1 - x0) <= 0.1 * pw
+    return (wide or tall) and all(poly.distance(q) > tol for q in others)
+
+
+def sort_out(paths: list[DrawnPath], tol: float, page=None) -> Sorting:
+    """Keep the paths that can bound a part (see the module doc); ``page``: the page's box in
+    output units, when the drawing has one (rule 8)."""
     import shapely
 
     left: Counter = Counter()
@@ -269,6 +282,14 @@ def sort_out(paths: list[DrawnPath], tol: float) -> Sorting:
                         for j in range(len(alive)))
             if crossed and not holds:
                 drop(lp, "symbol")
+                gone.add(k)
+    if page is not None:  # rule 8
+        for k, lp in enumerate(alive):
+            if k in gone or lp.polygon.is_empty or lp.depth:
+                continue
+            others = [q.polygon for j, q in enumerate(alive) if j != k and j not in gone]
+            if _page_bar(lp.polygon, page, others, tol):
+                drop(lp, "page bar")
                 gone.add(k)
     kept_paths = [p for p, k in zip(paths, kept) if k]
     outlines = sum(1 for k, lp in enumerate(alive) if k not in gone and lp.depth % 2 == 0)

@@ -196,3 +196,19 @@ def test_a_t_junction_end_is_not_a_gap(tmp_path):
     assert len(result.assembly) == 3 and _area(result) == 200
     assert sorted(p.area() for p in result.assembly.parts) == [50, 50, 100]
     assert all(v[0] == Fraction(v[0]) for p in result.assembly.parts for v in p.outer)
+
+
+def test_a_bar_along_the_whole_page_is_page_furniture_not_a_part(tmp_path):
+    svg = """<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="50mm"
+         viewBox="0 0 100 50">
+      <rect id="a" x="10" y="10" width="20" height="20"/>
+      <rect id="b" x="30" y="10" width="20" height="20"/>
+      <rect id="bar" x="0" y="45" width="100" height="5"/>
+    </svg>"""
+    result = import_drawing(F.write(tmp_path, "bar.svg", svg))
+    assert sorted(p.id for p in result.assembly.parts) == ["a", "b"]
+    assert "1 page bar" in result.summary()
+    # the same bar as wide as the parts only, not the page: a part
+    short = import_drawing(F.write(tmp_path, "short.svg", svg.replace('x="0" y="45" width="100"',
+                                                                       'x="10" y="45" width="40"')))
+    assert sorted(p.id for p in short.assembly.parts) == ["a", "b", "bar"]
