@@ -146,9 +146,19 @@ def distance(p: Point, q: Point) -> float:
     return math.hypot(p[0] - q[0], p[1] - q[1])
 
 
-def fmt_length(x: float) -> str:
-    return f"{x:.6g}"
+def _decimals(tol: float | None) -> int | None:
+    if tol is None or not tol > 0:
+        return None
+    return max(0, -math.floor(math.log10(tol) + 1e-9))
 
 
-def fmt_point(p: Point) -> str:
-    return f"({p[0]:.6g}, {p[1]:.6g})"
+def fmt_length(x: float, tol: float | None = None) -> str:
+    """A length for a message: to the tolerance's precision (``tol`` 0.01: two decimals), else
+    to six significant digits."""
+    d = _decimals(tol)
+    return f"{x:.6g}" if d is None else f"{x:.{d}f}"
+
+
+def fmt_point(p: Point, tol: float | None = None) -> str:
+    """A point for a message, as ``fmt_length`` writes each coordinate."""
+    return f"({fmt_length(p[0], tol)}, {fmt_length(p[1], tol)})"

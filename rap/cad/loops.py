@@ -54,6 +54,22 @@ def _half_index(pts: list[Point]) -> int:
     return len(pts) - 2
 
 
+def _span_under(p: Point, src: Source, paths: list[DrawnPath], tol: float) -> Source | None:
+    """The source of another path whose polyline passes within ``tol`` of ``p`` away from its
+    ends (an end met on a span: a T-junction), or None."""
+    from rap.cad.edges import closest
+
+    for path in paths:
+        if path.source == src or (not path.closed and min(distance(p, path.start),
+                                                            distance(p, path.end)) <= tol):
+            continue
+        for piece in path.pieces:
+            for a, b in zip(piece, piece[1:]):
+                if closest(p, a, b)[0] <= tol:
+                    return path.source
+    return None
+
+
 def join_loops(paths: list[DrawnPath], tol: float, unit: str) -> list[Loop]:
     """Closed loops from paths: closed ones as they are, open ones joined within their layer.
 
@@ -94,10 +110,11 @@ def join_loops(paths: list[DrawnPath], tol: float, unit: str) -> list[Loop]:
                     linked = deposit.edges_linked_to(v, tol)
                     meet = sorted({group[e.payload].source for e in linked},
                                   key=lambda s: s.order)
-                    raise Problem(f"{len(meet)} loose ends meet at {fmt_point((v.x, v.y))} ("
+                    raise Problem(f"{len(meet)} loose ends meet at "
+                                  f"{fmt_point((v.x, v.y), tol)} ("
                                   + ", ".join(s.describe() for s in meet[:4])
-                                  + "): a loop cannot branch; draw each part as a closed "
-                                    "polyline or on a layer of its own")
+                                  + "): a loop cannot branch; --parts auto reads shared edges "
+                                    "drawn once as faces")
             free.extend(((v.x, v.y), src) for v, src in ends)
             bad.append(len(free) - 2)
         if bad:
@@ -105,9 +122,14 @@ def join_loops(paths: list[DrawnPath], tol: float, unit: str) -> list[Loop]:
             (p, src) = free[i]
             others = [(distance(p, q), s, q) for j, (q, s) in enumerate(free) if j != i]
             gap, other, q = min(others, key=lambda t: t[0])
-            raise Problem(f"{src.describe()}: open loop: the end at {fmt_point(p)} meets nothing "
-                          f"within the tolerance {fmt_length(tol)} {unit}; the gap to the nearest "
-                          f"free end, {fmt_point(q)} of {other.describe()}, is {fmt_length(gap)} "
-                          f"{unit}")
+            on = _span_under(p, src, paths, tol)
+            if on is not None:
+                raise Problem(f"{src.describe()}: the end at {fmt_point(p, tol)} lies on "
+                              f"{on.describe()} (a T-junction): loops cannot end on a span; "
+                              f"--parts auto reads cut lines drawn once as faces")
+            raise Problem(f"{src.describe()}: open loop: the end at {fmt_point(p, tol)} meets "
+                          f"nothing within the tolerance {fmt_length(tol, tol)} {unit}; the gap "
+                          f"to the nearest free end, {fmt_point(q, tol)} of {other.describe()}, "
+                          f"is {fmt_length(gap, tol)} {unit}")
     loops.sort(key=lambda lp: lp.source.order)
     return loops

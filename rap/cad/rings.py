@@ -58,7 +58,7 @@ def exact_rings(loops: list[Loop], grid: Grid, unit: str) -> tuple[list[ExactRin
                 try:
                     grid.index(p[0]), grid.index(p[1])
                 except ValueError:
-                    raise Problem(f"{src.describe()}: coordinate {fmt_point(p)} is past the "
+                    raise Problem(f"{src.describe()}: coordinate {fmt_point(p, tol)} is past the "
                                   f"bounds of assembly files (|x| <= 10^9)") from None
             ends += (pts[0], pts[-1])
     node_of = merge_nodes(ends, tol, grid)
@@ -78,9 +78,9 @@ def exact_rings(loops: list[Loop], grid: Grid, unit: str) -> tuple[list[ExactRin
             nxt_pts, nxt_src = loop.pieces[(j + 1) % len(loop.pieces)]
             if pairs[j][1] != pairs[(j + 1) % len(pairs)][0]:
                 gap = distance(pts[-1], nxt_pts[0])
-                raise Problem(f"{src.describe()}: open loop: its end {fmt_point(pts[-1])} and "
-                              f"the start of {nxt_src.describe()} are {fmt_length(gap)} {unit} "
-                              f"apart (tolerance {fmt_length(tol)} {unit})")
+                raise Problem(f"{src.describe()}: open loop: its end {fmt_point(pts[-1], tol)} and "
+                              f"the start of {nxt_src.describe()} are {fmt_length(gap, tol)} {unit} "
+                              f"apart (tolerance {fmt_length(tol, tol)} {unit})")
             if distance(pts[-1], nxt_pts[0]) > noise:
                 gaps += 1
         loop_ends.append(pairs)
@@ -114,7 +114,7 @@ def exact_rings(loops: list[Loop], grid: Grid, unit: str) -> tuple[list[ExactRin
                 try:
                     n = (grid.index(x), grid.index(y))
                 except ValueError:
-                    raise Problem(f"a curve reaches {fmt_point((x, y))}, past the bounds of "
+                    raise Problem(f"a curve reaches {fmt_point((x, y), tol)}, past the bounds of "
                                   f"assembly files (|x| <= 10^9)") from None
                 if n != a and n != b and (not verts or verts[-1] != n):
                     verts.append(n)
@@ -198,7 +198,7 @@ def _self_intersection(ring: ExactRing, grid: Grid) -> str:
         return f"{ring.loop.source.describe()}: self-intersection"
     i, j, p = where
     a, b = ring.sources[i], ring.sources[j]
-    at = fmt_point((float(grid.step) * p[0], float(grid.step) * p[1]))
+    at = fmt_point((float(grid.step) * p[0], float(grid.step) * p[1]), grid.step_float)
     if a == b:
         return f"{a.describe()}: self-intersection near {at}"
     return f"{a.describe()}: self-intersection: it meets {b.describe()} near {at}"

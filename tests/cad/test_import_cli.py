@@ -41,9 +41,9 @@ def no_loop(m):
 
 #: (name, drawing writer or SVG text, the words the one-line error must contain)
 BAD = [
-    ("open", open_loop, ["LINE", "layer '0'", "open loop", "0.5 mm"]),
+    ("open", open_loop, ["LINE", "layer '0'", "open loop", "0.50 mm", "--tolerance 1 closes it"]),
     ("selfx", self_intersection, ["LWPOLYLINE", "layer 'bow'",
-                                  "self-intersection near (3.33333, 3.33333)"]),
+                                  "self-intersection near (3.33, 3.33)", "--parts face"]),
     ("overlap", overlap, ["layer 'a'", "layer 'b'", "parts 'a' and 'b' overlap"]),
     ("noloop", no_loop, ["no closed loop found", "1 TEXT"]),
 ]

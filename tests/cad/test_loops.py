@@ -16,5 +16,5 @@ def test_open_paths_join_within_their_layer_only():
     (loop,) = join_loops([half1, half2], 0.01, "mm")
     assert len(loop.pieces) == 4 and loop.source.ident == "h1"
     half2 = DrawnPath(half2.pieces, src("h2", 1, "L2"), False)
-    with pytest.raises(Problem, match=r"open loop.*gap to the nearest free end.* is 14\.1421 mm"):
+    with pytest.raises(Problem, match=r"open loop.*gap to the nearest free end.* is 14\.14 mm"):
         join_loops([half1, half2], 0.01, "mm")
