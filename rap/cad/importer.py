@@ -96,8 +96,11 @@ class ImportResult:
     def summary(self) -> str:
         holes = sum(len(p.holes) for p in self.assembly.parts)
         left = f"; left out: {left_out_text(Counter(self.ignored))}" if self.ignored else ""
+        # parts from a few layers, one of them holding several: say which (a layer a part is
+        # the naming convention of examples/, not worth a word)
+        few = 1 < len(self.by_layer) <= 6 and len(self.by_layer) < len(self.assembly)
         layers = ("; parts by layer: " + ", ".join(f"{k} {n}" for k, n in self.by_layer.items())
-                  + " (--layers, --skip-layers choose)" if len(self.by_layer) > 1 else "")
+                  + " (--layers, --skip-layers choose)" if few else "")
         return (f"{len(self.assembly)} parts ({holes} holes) as {self.made_by}, "
                 f"{self.vertices} vertices, {self.gaps_closed} gaps closed, unit {self.unit} "
                 f"({self.unit_note}), tolerance {self.tolerance:f} {self.unit}{left}{layers}")
