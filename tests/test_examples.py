@@ -43,6 +43,19 @@ def test_inspect_finds_no_interlocked_subassembly(run_cli, name):
     assert "interlocked subassemblies: none found" in out
 
 
+def test_the_layered_drawing_imports_its_parts_and_leaves_the_annotations_out():
+    result = import_drawing(EXAMPLES / "layered.svg")
+    assert {p.id for p in result.assembly.parts} == {"channel", "slider", "cap"}
+    assert sum(float(p.area()) for p in result.assembly.parts) == 60 * 40 - 40 * 30 + 39 * 25 \
+        + 60 * 8
+    line = result.summary()
+    for what in ("open paths on layer 'Dimensions'", "1 dashed line on layer 'Dimensions'",
+                 "1 frame on layer 'Sheet'", "1 text on layer 'Dimensions'"):
+        assert what in line, line
+    chosen = import_drawing(EXAMPLES / "layered.svg", ImportOptions(layers=("Parts",)))
+    assert chosen.assembly.geometry_hash == result.assembly.geometry_hash
+
+
 def test_the_dxf_is_what_its_script_writes(tmp_path, monkeypatch):
     spec = importlib.util.spec_from_file_location("make_bracket_dxf",
                                                   EXAMPLES / "make_bracket_dxf.py")

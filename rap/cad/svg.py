@@ -164,7 +164,7 @@ def _layer_name(group, order: int) -> tuple[str, set[str]]:
         if str(key).endswith("label") and "inkscape" in str(key):
             label = str(value)
             break
-    name = group.id or label or f"g{order}"
+    name = label or group.id or f"g{order}"  # the name Inkscape shows in its Layers panel
     return name, {n for n in (name, group.id, label) if n}
 
 

@@ -31,7 +31,7 @@ CASES = [  # file, options, parts, holes, total area (mm^2; None: not stated by 
     # hand-placed pieces overlapping by tenths of a millimetre: the flags their refusals name
     ("alinen-puzzle-square.svg", {"tolerance": "0.5"}, 7, 0,
      ((159.36499 - 23.087838) * PX) ** 2),  # a square of T1's long side
-    ("alinen-tangram-mm-71f613e.svg", {"tolerance": "1", "layers": ("layer2",)}, 7, 0,
+    ("alinen-tangram-mm-71f613e.svg", {"tolerance": "1", "layers": ("Puzzle",)}, 7, 0,
      200.0 ** 2),  # the 200 mm square of its construction layer
     ("elm-logo.svg", {}, 7, 0, None),
     ("penrose-Rh_01.svg", {}, 13, 0, PENROSE_AREA),
@@ -66,8 +66,8 @@ def test_the_ring_is_the_annulus_less_its_slots():
 
 def test_the_defaults_say_what_they_left_out_and_which_layers_made_parts():
     tangram = import_drawing(DRAWINGS / "alinen-tangram.svg").summary()
-    assert "1 page bar on layer 'TimebarLayer'" in tangram  # the game's timebar
-    assert "1 shape drawn twice on layer 'TimebarLayer'" in tangram  # its stroke, drawn again
+    assert "1 page bar on layer 'Timebar'" in tangram  # the game's timebar
+    assert "1 shape drawn twice on layer 'Timebar'" in tangram  # its stroke, drawn again
     gears = import_drawing(DRAWINGS / "orrery-small-gears.dxf").summary()
     assert "left out: 2 centre lines, 1 DIMENSION, 1 POINT, 1 symbol" in gears
 
@@ -77,7 +77,7 @@ def test_the_defaults_say_what_they_left_out_and_which_layers_made_parts():
     ("kach-triangle3.svg", "--parts face reads them as parts"),
     ("langmuir-Minimal-intersection-two-squares.dxf", "overlap by 100.00 mm^2, 5.00 mm deep"),
     ("alinen-puzzle-square.svg", "(--tolerance 0.5 absorbs the overlaps)"),
-    ("alinen-tangram-mm-71f613e.svg", "(--layers layer2 --tolerance 1 absorbs the overlaps)"),
+    ("alinen-tangram-mm-71f613e.svg", "(--layers Puzzle --tolerance 1 absorbs the overlaps)"),
 ])
 def test_a_refusal_is_one_line_naming_the_flag_or_the_overlap(name, what):
     with pytest.raises(DrawingError) as e:

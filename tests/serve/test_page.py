@@ -133,9 +133,16 @@ def test_import_reads_an_svg_drawing(service):
     status, doc, _ = _upload(service, "/import?name=two.svg", svg.encode())
     assert status == 200, doc
     assert doc["name"] == "two" and len(doc["parts"]) == 2
+    # no physical size: a user unit is a CSS px (1/96 in), as the CLI reads it
     status, doc, _ = _upload(service, "/import?name=bare.svg", svg.replace('width="20mm" '
                              'height="10mm" ', "").encode())
-    assert status == 400 and doc["error"].startswith("bare.svg: ") and "units" in doc["error"]
+    assert status == 200 and len(doc["parts"]) == 2, doc
+    assert max(float(x) for p in doc["parts"] for x, _ in p["polygon"]) == \
+        pytest.approx(20 * 25.4 / 96, abs=0.01)
+    # overlapping parts: a 400 naming the overlap
+    status, doc, _ = _upload(service, "/import?name=over.svg", svg.replace('x="10"', 'x="5"')
+                             .encode())
+    assert status == 400 and doc["error"].startswith("over.svg: ") and "overlap" in doc["error"]
 
 
 BAD_UPLOADS = [

@@ -213,84 +213,102 @@ def _page_bar(poly, page, others: list, tol: float) -> bool:
     return (wide or tall) and all(poly.distance(q) > tol for q in others)
 
 
+def _inside(loops: list[_Loop], k: int, alive: set[int], tree) -> list[int]:
+    """The alive loops that loop k holds (smaller, a point of theirs inside it)."""
+    poly = loops[k].polygon
+    return [j for j in tree.query(poly, predicate="intersects") if j != k and j in alive
+            and loops[j].polygon.area < poly.area
+            and poly.contains(loops[j].polygon.representative_point())]
+
+
+def _loop_rules(loops: list[_Loop], tol: float, page, construction: list, drop) -> bool:
+    """Rules 4-8 on the loops, outermost first; ``drop(loop, why)`` leaves one out. True when
+    a loop was left out (the paths left change, so rule 2 runs again)."""
+    import shapely
+
+    polys = [lp.polygon for lp in loops]
+    tree = shapely.STRtree(polys)
+    alive = {k for k, lp in enumerate(loops) if not lp.polygon.is_empty}
+    holders = {k: [j for j in tree.query(polys[k].representative_point(), predicate="within")
+                   if j != k and polys[j].area > polys[k].area] for k in alive}
+    dropped = False
+
+    def depth(k: int) -> int:
+        return sum(1 for j in holders[k] if j in alive)
+
+    def leave(k: int, why: str) -> None:
+        nonlocal dropped
+        drop(loops[k], why)
+        alive.discard(k)
+        dropped = True
+
+    for k in sorted(alive, key=lambda k: -polys[k].area):
+        if k not in alive or depth(k) % 2:
+            continue
+        poly = polys[k]
+        twins = [j for j in tree.query(poly.buffer(2 * tol), predicate="contains")
+                 if j != k and j in alive and depth(j) == depth(k)
+                 and _same(poly, polys[j], 2 * tol)]
+        if any(loops[j].order < loops[k].order for j in twins):  # rule 4
+            leave(k, "shape drawn twice")
+            continue
+        inside = [j for j in _inside(loops, k, alive, tree) if j not in twins]
+        top = [j for j in inside if not any(i != j and polys[i].area > polys[j].area
+                                            and polys[i].contains(
+                                                polys[j].representative_point())
+                                            for i in inside)]
+        if len(top) >= 2:
+            slack = _slack(poly, tol)
+            if _same(poly, _closed_union([polys[j] for j in top], slack), slack):  # rule 5
+                leave(k, "outline of the parts' union")
+                continue
+            if not any(poly.boundary.distance(polys[j]) <= tol for j in top) \
+                    and any(polys[a].distance(polys[b]) <= tol
+                            for a in top for b in top if a < b):  # rule 6
+                leave(k, "frame")
+                continue
+        if construction and not inside:  # rule 7
+            ring = poly.boundary
+            if any(ring.distance(shapely.Point(c.coords[0])) <= tol
+                   and ring.distance(shapely.Point(c.coords[-1])) <= tol
+                   and poly.contains(c.interpolate(0.5, normalized=True)) for c in construction):
+                leave(k, "symbol")
+                continue
+        if page is not None and depth(k) == 0:  # rule 8
+            others = [polys[j] for j in alive if j != k]
+            if _page_bar(poly, page, others, tol):
+                leave(k, "page bar")
+    return dropped
+
+
 def sort_out(paths: list[DrawnPath], tol: float, page=None) -> Sorting:
     """Keep the paths that can bound a part (see the module doc); ``page``: the page's box in
     output units, when the drawing has one (rule 8)."""
-    import shapely
-
     left: Counter = Counter()
     kept = [p.construction is None for p in paths]
     for p in paths:
         if p.construction is not None:
             left[(p.construction, p.source.layer)] += 1
-    while True:  # rule 2, until nothing changes
-        free = _free_ends(paths, kept, tol)
-        if not free:
-            break
-        for i in free:
-            kept[i] = False
-            left[("open path", paths[i].source.layer)] += 1
-    loops, network = _loops(paths, kept, tol)
-    _depths(loops)
+    construction = [path_line(p) for p in paths if p.construction is not None]
 
     def drop(lp: _Loop, why: str) -> None:
         for i in lp.members:
             kept[i] = False
         left[(why, paths[lp.members[0]].source.layer)] += 1
 
-    alive = [lp for lp in loops if not lp.polygon.is_empty]
-    tree = shapely.STRtree([lp.polygon for lp in alive]) if alive else None
-    gone: set[int] = set()
-    for k, lp in enumerate(alive):  # rules 4 and 5
-        if lp.depth % 2 or k in gone:
-            continue
-        near = [j for j in tree.query(lp.polygon.buffer(_slack(lp.polygon, tol)),
-                                      predicate="contains")
-                if j != k and j not in gone]
-        twins = [j for j in near if alive[j].depth == lp.depth
-                 and _same(lp.polygon, alive[j].polygon, 2 * tol)]
-        if any(j < k for j in twins):
-            drop(lp, "shape drawn twice")
-            gone.add(k)
-            continue
-        inside = [j for j in near if j not in twins and alive[j].depth == lp.depth + 1]
-        if len(inside) >= 2:
-            union = _closed_union([alive[j].polygon for j in inside], _slack(lp.polygon, tol))
-            if _same(lp.polygon, union, _slack(lp.polygon, tol)):
-                drop(lp, "outline of the parts' union")
-                gone.add(k)
-                for j in inside:
-                    alive[j].depth -= 1
-                continue
-            if not any(lp.polygon.exterior.distance(alive[j].polygon) <= tol for j in inside) \
-                    and any(alive[a].polygon.distance(alive[b].polygon) <= tol
-                            for a in inside for b in inside if a < b):
-                drop(lp, "frame")
-                gone.add(k)
-                continue
-    construction = [path_line(p) for p in paths if p.construction is not None]
-    if construction:  # rule 7
-        for k, lp in enumerate(alive):
-            if k in gone or lp.polygon.is_empty:
-                continue
-            ring = lp.polygon.exterior
-            crossed = any(ring.distance(shapely.Point(c.coords[0])) <= tol
-                          and ring.distance(shapely.Point(c.coords[-1])) <= tol
-                          and lp.polygon.contains(c.interpolate(0.5, normalized=True))
-                          for c in construction)
-            holds = any(j != k and j not in gone and lp.polygon.contains(alive[j].polygon)
-                        for j in range(len(alive)))
-            if crossed and not holds:
-                drop(lp, "symbol")
-                gone.add(k)
-    if page is not None:  # rule 8
-        for k, lp in enumerate(alive):
-            if k in gone or lp.polygon.is_empty or lp.depth:
-                continue
-            others = [q.polygon for j, q in enumerate(alive) if j != k and j not in gone]
-            if _page_bar(lp.polygon, page, others, tol):
-                drop(lp, "page bar")
-                gone.add(k)
+    for _ in range(8):  # rules 2, then 4-8, until nothing changes (a frame gone frees ends)
+        while True:  # rule 2
+            free = _free_ends(paths, kept, tol)
+            if not free:
+                break
+            for i in free:
+                kept[i] = False
+                left[("open path", paths[i].source.layer)] += 1
+        loops, network = _loops(paths, kept, tol)
+        if not loops or not _loop_rules(loops, tol, page, construction, drop):
+            break
+    _depths(loops)
     kept_paths = [p for p, k in zip(paths, kept) if k]
-    outlines = sum(1 for k, lp in enumerate(alive) if k not in gone and lp.depth % 2 == 0)
+    outlines = sum(1 for lp in loops if not lp.polygon.is_empty and lp.depth % 2 == 0
+                   and all(kept[i] for i in lp.members))
     return Sorting(kept_paths, left, network, outlines)

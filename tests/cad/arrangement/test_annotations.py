@@ -113,9 +113,9 @@ def test_inkscape_dimensions_and_a_target_outline_are_left_out(tmp_path):
     assert sorted(p.id for p in result.assembly.parts) == ["a", "b"]
     assert _area(result) == pytest.approx(800)
     line = result.summary()
-    assert "left out:" in line and "open paths on layer 'layer2'" in line
-    assert "1 dashed line on layer 'layer2'" in line and "1 text on layer 'layer2'" in line
-    assert "1 outline of the parts' union on layer 'layer3'" in line
+    assert "left out:" in line and "open paths on layer 'Dimensions'" in line
+    assert "1 dashed line on layer 'Dimensions'" in line and "1 text on layer 'Dimensions'" in line
+    assert "1 outline of the parts' union on layer 'Outline'" in line
     assert "metadata" not in line and "rdf" not in line.lower()
 
 
@@ -123,14 +123,14 @@ def test_layers_are_chosen_by_id_or_label(tmp_path):
     path = F.write(tmp_path, "ink.svg", SVG_INKSCAPE)
     only = import_drawing(path, ImportOptions(layers=("Parts",)))
     assert sorted(p.id for p in only.assembly.parts) == ["a", "b"]
-    assert "paths not chosen on layer 'layer2'" in only.summary()
+    assert "paths not chosen on layer 'Dimensions'" in only.summary()
     # the outline alone is one part: the user asked for it
     outline = import_drawing(path, ImportOptions(layers=("layer3",)))
     assert [p.id for p in outline.assembly.parts] == ["outline"]
     skipped = import_drawing(path, ImportOptions(skip_layers=("Outline", "Dimensions")))
     assert sorted(p.id for p in skipped.assembly.parts) == ["a", "b"]
     with pytest.raises(InputError, match=r"layers 'Nope': no such layer in the drawing "
-                                         r"\(layers: layer1, layer2, layer3\)"):
+                                         r"\(layers: Dimensions, Outline, Parts\)"):
         import_drawing(path, ImportOptions(layers=("Nope",)))
 
 
