@@ -4,4 +4,4 @@ Layers import downward only: ``geometry`` (exact) <- ``sim``/``render`` (floats)
 <- ``plan``; only ``farm`` imports ray, and the CLI imports it lazily.
 """
 
-__version__ = "0.4.1"
+__version__ = "0.5.0"

@@ -56,16 +56,18 @@ def exact_json(value: Any) -> str:
 
 
 def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
-              options: dict | None = None, constraints=None) -> bytes:
+              options: dict | None = None, constraints=None, loaded=None) -> bytes:
     """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``) or a
-    drawing (.dxf, .svg: imported with the default options, as ``load_assembly`` does);
+    drawing (.dxf, .svg: imported with the default options, as ``load_assembly`` does, unless
+    ``loaded``, the ``Assembly`` the caller already read from it, is given: a drawing is
+    imported once a command);
     ``options``: the method's planner options (``rap.serve.api.PLANNER_OPTIONS``), those not None;
     ``constraints``: the cell's ``rap.plan.cell.constraints.CellConstraints`` (sent when active)."""
     path = Path(assembly_path)
     if path.suffix.lower() in (".dxf", ".svg"):  # a drawing: sent as the assembly it imports to
         from rap.io import assembly_to_json, load_assembly
 
-        data = assembly_to_json(load_assembly(path))
+        data = assembly_to_json(loaded if loaded is not None else load_assembly(path))
     else:
         try:
             data = json.loads(path.read_text(encoding="utf-8"), parse_float=Decimal, parse_int=int)

@@ -121,8 +121,13 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                                   if cnn else ()), s.reason or "")
     console.print(table)
     st = result.stats
+    free = sum(s.source == "free" for s in result.steps)  # 1 by geometry, not simulated
     line = f"robustness R = {result.robustness:.4f} (product of the simulator's step scores"
-    if result.robustness_interval is not None:
+    if free:
+        line = (f"robustness R = {result.robustness:.4f} (product of the step scores: {free} free "
+                f"by geometry, exactly 1" + (", the rest the simulator's" if free < len(
+                    result.steps) else ""))
+    if result.robustness_interval is not None and free < len(result.steps):
         line += (f"; {level} {interval_text(result.robustness_interval, 3)} from "
                  f"{result.trials} trials a step, Bonferroni")
     line += ")"
@@ -146,17 +151,20 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
         console.print(text)
     parts = [f"planning {result.seconds:.2f} s", f"evaluation {result.eval_seconds:.2f} s"]
     if wall_s is not None:
-        parts.append(f"wall {wall_s:.2f} s" + (" (Ray start-up included)" if ray else ""))
+        parts.append(f"wall {wall_s:.2f} s" + (" (reading the assembly and Ray start-up included)"
+                                               if ray else " (reading the assembly included)"))
     if st.get("service_seconds") is not None and not ray:
         parts.append(f"service {st['service_seconds']:.2f} s")
     console.print("time: " + ", ".join(parts))
     facts = [f"{st.get('sim_run', 0)} simulations run", f"{st.get('cache_hits', 0)} cached scores used"]
+    if st.get("free"):
+        facts.append(f"{st['free']} scores of free operations (no contact: 1 without simulation)")
     if st.get("cnn_batches"):
         facts.append(f"{st['cnn_ops']} CNN scores in {st['cnn_batches']} batches")
     if result.method == "rap":
         facts.append(f"simulator fallbacks: {st.get('fallbacks', 0)} of {st.get('decisions', 0)} "
                      f"decisions")
-    if result.method == "search":
+    if result.method == "search" and st.get("search"):  # a single part: no search
         how = (f"exact DP over {st.get('operations', '?')} operations" if st.get("search") == "exact"
                else f"beam of width {st.get('beam_width')}")
         start = (f"from simulator-only greedy's plan (R {st['greedy_robustness']:.3g}, "

@@ -173,9 +173,9 @@ def plan_command(
     # a transient progress line on stderr (a terminal only) from here to the table
     with activity(f"planning {Path(assembly).name}", err) as progress:
         progress.update("reading the assembly")
-        asm = load_assembly(assembly)
+        t0 = time.perf_counter()  # the wall time includes reading (a drawing: its import)
+        asm = load_assembly(assembly)  # once: everything below takes ``asm``
         check_cell(cell, [asm])
-        t0 = time.perf_counter()
         if server is not None:
             result, on_ray = _plan_by_service(assembly, asm, method, seed, options, server,
                                               token, progress, cell), False
@@ -236,7 +236,7 @@ def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, serv
     from rap.plan.report.result import PlanResult
 
     sent = {o.name: options[o.name] for o in METHODS[method].declared() if o.service and o.cli}
-    body = plan_body(assembly, method, seed, sent, constraints=constraints)
+    body = plan_body(assembly, method, seed, sent, constraints=constraints, loaded=asm)
     with flags("server"), console.status(f"planning {asm.name} with {method} at {server} ..."):
         try:
             doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
@@ -363,8 +363,9 @@ def _familiarity(asm, cnn, space: str, err, problem=None) -> None:
         from rap.sim.params import SimParams
 
         problem = problem or PlanningProblem(asm, SimParams(), space=space)
-        images = cnn.images(problem, familiarity_operations(problem))
-        notes = model_familiarity(cnn.meta, asm.geometry_hash, images)
+        ops = familiarity_operations(problem)  # none: every operation is free
+        notes = model_familiarity(cnn.meta, asm.geometry_hash,
+                                  cnn.images(problem, ops) if ops else ())
     except RapError:
         raise
     except Exception as exc:  # a failed check must not stop planning

@@ -29,6 +29,13 @@ meet, each in O(n_a n_b) for rings of n_a and n_b edges: O(P log P + sum over su
 n_a n_b). It is memoised per ``Assembly.geometry_hash`` (the last 32 assemblies).
 ``contacts_within(assembly, ids)`` then costs O(sum of the degrees of ``ids`` in the contact
 graph).
+
+``meeting_pairs(assembly)`` is the plain question without the normals: the pairs of parts whose
+closed polygons share a point, **vertex-vertex touching included** (what decides whether an
+operation touches anything, ``rap.geometry.ndbg.is_free_operation``). Exact through the filtered
+segment predicates of ``rap.geometry.batch``: O(V log V + k) numpy work for V vertices and k
+pairs of segment boxes that meet, plus an exact integer test for each pair the filter cannot
+decide; memoised like the table.
 """
 
 from __future__ import annotations
@@ -43,7 +50,8 @@ from typing import Iterable, Mapping
 from rap.assembly import Assembly
 from rap.geometry.exact import IntPart, cross, dot, primitive, to_integers
 
-__all__ = ["Contact", "contact_segments", "contact_table", "contacts_within", "touching"]
+__all__ = ["Contact", "contact_segments", "contact_table", "contacts_within", "touching",
+           "meeting_pairs"]
 
 FPoint = tuple[Fraction, Fraction]
 
@@ -254,3 +262,56 @@ def contacts_within(assembly: Assembly,
             if a < b and b in chosen:
                 out[(a, b)] = table.pairs[(a, b)]
     return out
+
+
+_MEETING: OrderedDict[str, frozenset] = OrderedDict()
+
+
+def _meeting(assembly: Assembly) -> frozenset[tuple[str, str]]:
+    import numpy as np
+
+    from rap.geometry.batch import box_pairs, crossing_signs
+    from rap.geometry.validation import segments_intersect
+
+    ia = to_integers(assembly)
+    owner, segs = [], []
+    for k, part in enumerate(ia.parts):
+        for p, q in _edges(part):
+            owner.append(k)
+            segs.append((p, q))
+    if len(ia.parts) < 2:
+        return frozenset()
+    owner_a = np.asarray(owner)
+    pts = np.asarray(segs, dtype=np.float64)  # [n, 2 ends, 2]: exact (|x| < 2^53, rap.assembly)
+    boxes = np.concatenate([pts.min(axis=1), pts.max(axis=1)], axis=1)
+    found: set[tuple[int, int]] = set()
+    for i, j in box_pairs(boxes):
+        keep = owner_a[i] != owner_a[j]
+        i, j = i[keep], j[keep]
+        crossing, unsure = crossing_signs(pts[i, 0], pts[i, 1], pts[j, 0], pts[j, 1])
+        for a, b in zip(i[crossing], j[crossing]):  # a proper crossing: not a valid assembly's
+            found.add(tuple(sorted((owner[a], owner[b]))))
+        for a, b in zip(i[unsure], j[unsure]):
+            pair = tuple(sorted((owner[a], owner[b])))
+            if pair not in found and segments_intersect(*segs[a], *segs[b]):
+                found.add(pair)
+    ids = ia.ids
+    return frozenset(tuple(sorted((ids[a], ids[b]))) for a, b in found)
+
+
+def meeting_pairs(assembly: Assembly) -> frozenset[tuple[str, str]]:
+    """The pairs ``(a, b)``, ``a < b``, of parts whose closed polygons share at least one point:
+    a segment or point contact, or two vertices that coincide (module doc). Exact; memoised per
+    geometry hash."""
+    key = assembly.geometry_hash
+    with _LOCK:
+        hit = _MEETING.get(key)
+        if hit is not None:
+            _MEETING.move_to_end(key)
+            return hit
+    pairs = _meeting(assembly)
+    with _LOCK:
+        _MEETING[key] = pairs
+        while len(_MEETING) > _CACHE_SIZE:
+            _MEETING.popitem(last=False)
+    return pairs

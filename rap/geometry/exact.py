@@ -128,20 +128,58 @@ def half(d: Sequence) -> int:
     return 0 if (y > 0 or (y == 0 and x > 0)) else 1
 
 
-def angle_key(d: Sequence) -> tuple[int, Fraction]:
+class _Slope:
+    """An exact ratio ``num / den`` (``den > 0``) compared by cross multiplication: the exact
+    part of ``angle_key``, read only where two correctly rounded float ratios are equal."""
+
+    __slots__ = ("num", "den")
+
+    def __init__(self, num, den):
+        self.num, self.den = num, den
+
+    def __eq__(self, other):
+        return self.num * other.den == other.num * self.den
+
+    def __lt__(self, other):
+        return self.num * other.den < other.num * self.den
+
+    def __le__(self, other):
+        return self.num * other.den <= other.num * self.den
+
+    def __gt__(self, other):
+        return self.num * other.den > other.num * self.den
+
+    def __ge__(self, other):
+        return self.num * other.den >= other.num * self.den
+
+    def __hash__(self):
+        return hash(Fraction(self.num) / Fraction(self.den))
+
+
+def _ratio(num, den) -> float:
+    """``num / den`` correctly rounded (monotone in the exact ratio): Python's int division is
+    correctly rounded, and so is a Fraction's conversion."""
+    if isinstance(num, int) and isinstance(den, int):
+        return num / den
+    return float(Fraction(num) / Fraction(den))
+
+
+def angle_key(d: Sequence) -> tuple[int, float, _Slope]:
     """A sort key increasing with the CCW angle of d in [0, 2 pi); equal for equal directions.
 
-    Quadrant index plus a rational that is monotone inside the quadrant (exact).
+    Quadrant index plus a ratio that is monotone inside the quadrant, exact: the ratio correctly
+    rounded to a float (monotone, so it orders all but float ties, in C) and then the exact ratio
+    (compared by cross multiplication, only on a tie).
     """
     x, y = d[0], d[1]
     if x > 0 and y >= 0:
-        return (0, Fraction(y, x))
+        return (0, _ratio(y, x), _Slope(y, x))
     if x <= 0 and y > 0:
-        return (1, Fraction(-x, y))
+        return (1, _ratio(-x, y), _Slope(-x, y))
     if x < 0 and y <= 0:
-        return (2, Fraction(y, x))
+        return (2, _ratio(-y, -x), _Slope(-y, -x))
     if x >= 0 and y < 0:
-        return (3, Fraction(x, -y))
+        return (3, _ratio(x, -y), _Slope(x, -y))
     raise ValueError("the zero vector has no direction")
 
 

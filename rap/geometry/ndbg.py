@@ -26,6 +26,8 @@ plus the O(n^3) output of the explicit per-cell DBGs.
 from __future__ import annotations
 
 import bisect
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Iterable, Sequence
@@ -36,8 +38,8 @@ from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, arc_middle
                                 exact_direction, in_open_arc, primitive, to_integers, unit)
 from rap.geometry.validation import part_pieces
 
-__all__ = ["Cell", "NDBG", "build_ndbg", "build_ndbg_from_pieces", "cell_index", "cell_at",
-           "blocked_at", "is_feasible_operation"]
+__all__ = ["Cell", "NDBG", "build_ndbg", "build_ndbg_from_pieces", "ndbg_of", "cell_index",
+           "cell_at", "blocked_at", "is_feasible_operation", "is_free_operation"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -227,6 +229,29 @@ def build_ndbg(assembly: Assembly) -> NDBG:
     return build_ndbg_from_pieces(ia.ids, part_pieces(ia), assembly.name, ia.scale)
 
 
+_MEMO: OrderedDict[tuple[str, str], NDBG] = OrderedDict()
+_MEMO_SIZE = 8
+_MEMO_LOCK = threading.Lock()
+
+
+def ndbg_of(assembly: Assembly) -> NDBG:
+    """``build_ndbg(assembly)``, memoised for the last ``_MEMO_SIZE`` assemblies (by geometry hash
+    and name): the planner's problem, the descriptors and the plan's reasons share one NDBG of an
+    assembly instead of building it each (seconds for parts of hundreds of vertices)."""
+    key = (assembly.geometry_hash, assembly.name)
+    with _MEMO_LOCK:
+        hit = _MEMO.get(key)
+        if hit is not None:
+            _MEMO.move_to_end(key)
+            return hit
+    ndbg = build_ndbg(assembly)
+    with _MEMO_LOCK:
+        _MEMO[key] = ndbg
+        while len(_MEMO) > _MEMO_SIZE:
+            _MEMO.popitem(last=False)
+    return ndbg
+
+
 def _as_int_direction(d: Sequence) -> IVec:
     if all(isinstance(v, int) for v in d):
         return primitive(d)
@@ -275,3 +300,25 @@ def is_feasible_operation(ndbg: NDBG, moving_ids: Iterable[str], fixed_ids: Iter
     for p in fixed_ids:
         fixed |= 1 << pos[p]
     return not any(outs[pos[p]] & fixed for p in moving_ids)
+
+
+def is_free_operation(ndbg: NDBG, meeting: Iterable[tuple[str, str]], moving_ids: Iterable[str],
+                      fixed_ids: Iterable[str], removal_direction: Sequence) -> bool:
+    """Does ``moving``, swept along the removal direction from its place to infinity, never touch
+    ``fixed``? True iff no (moving part, fixed part) pair is in ``meeting`` (pairs ``(a, b)`` of
+    parts whose closed polygons share a point: ``rap.geometry.contacts.meeting_pairs``) and none
+    is blocked in the *closure* of the direction's cell: a pair's blocked set is a union of open
+    arcs whose ends are critical directions, so at a critical (vertex) direction the arc cells on
+    either side count too, and a swept part that only grazes a fixed one is not free. Exact, as
+    ``is_feasible_operation``. O(log cells + |moving| + |meeting|)."""
+    if any(isinstance(v, float) for v in removal_direction):
+        removal_direction = tuple(Fraction(v) for v in removal_direction)
+    moving, fixed = frozenset(moving_ids), frozenset(fixed_ids)
+    if any((a in moving and b in fixed) or (a in fixed and b in moving) for a, b in meeting):
+        return False
+    k = cell_index(ndbg, removal_direction)
+    cells = ndbg.cells
+    near = (k - 1, k, k + 1) if cells[k].kind == "vertex" else (k,)
+    fmask = ndbg.mask(fixed)
+    pos = [ndbg.index(p) for p in moving]
+    return not any(cells[c % len(cells)].outs[i] & fmask for c in near for i in pos)

@@ -23,8 +23,15 @@ gravity; applied by ``rap.plan.cell.rules``, so every planner obeys them); an em
 subset is interlocked or blocked by the constraints. ``splits(subset)`` gives every operation
 without the constraints, with its ``Partition`` (None from a ``partition_fn``); ``stability``
 the memoised static check of a subassembly (``stability_fn``, default
-``rap.sim.statics.check_static``). The NDBG is built once, lazily. ``partition_fn`` replaces the
-NDBG for tests. An operation's key and seed do not depend on the constraints.
+``rap.sim.statics.check_static``). The NDBG is built once, lazily, and shared with the descriptors
+and the plan's reasons (``rap.geometry.ndbg.ndbg_of``). ``partition_fn`` replaces the NDBG's
+operations for tests. An operation's key and seed do not depend on the constraints.
+
+``is_free(op)``: whether the operation's moving parts touch nothing of the fixed ones, along their
+insertion or at their goal (``rap.geometry.ndbg.is_free_operation``, exact): such an operation is
+robust by geometry, and the scorer gives it 1 without simulating or predicting
+(``rap.plan.scoring.scorer``). Memoised; its first call builds the NDBG and the table of touching
+parts.
 
 No ray, no torch.
 """
@@ -33,6 +40,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Callable, Iterable
 
 from rap.assembly import Assembly
@@ -56,9 +64,9 @@ def _ndbg_partition_fn(assembly: Assembly, space: str, one_part: bool = False) -
     """(subset) -> [(Operation, Partition)] from the NDBG; ``one_part``: every single-part move
     (``single_part_partitions``) whatever the space, for a cell that inserts one part a step."""
     from rap.geometry import partitions as P
-    from rap.geometry.ndbg import build_ndbg
+    from rap.geometry.ndbg import ndbg_of
 
-    ndbg = build_ndbg(assembly)
+    ndbg = ndbg_of(assembly)
     choose = P.online_partitions if space == "online" else P.all_partitions
     if one_part:
         choose = P.single_part_partitions
@@ -91,6 +99,7 @@ class PlanningProblem:
     _stable: dict = field(default_factory=dict, init=False, repr=False)
     _ndbg_fns: dict = field(default_factory=dict, init=False, repr=False)  # one_part -> fn
     cell_memo: dict = field(default_factory=dict, init=False, repr=False)  # rap.plan.cell.rules's
+    _free: dict = field(default_factory=dict, init=False, repr=False)  # op content -> is free
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
     def __post_init__(self):
@@ -185,6 +194,23 @@ class PlanningProblem:
         with self._lock:
             self._stable[subset] = support
         return support
+
+    def is_free(self, op: Operation) -> bool:
+        """Whether ``op``'s moving parts touch no fixed part along the insertion or at the goal
+        (module doc): robust by geometry. Exact, on the operation's exact direction where it
+        carries one (else its float direction, read exactly). Memoised; thread-safe."""
+        d = op.exact_direction if op.exact_direction is not None else op.direction
+        memo = (op.moving, op.fixed, tuple(d))
+        hit = self._free.get(memo)
+        if hit is None:
+            from rap.geometry.contacts import meeting_pairs
+            from rap.geometry.ndbg import is_free_operation, ndbg_of
+
+            removal = (-Fraction(d[0]), -Fraction(d[1]))
+            hit = is_free_operation(ndbg_of(self.assembly), meeting_pairs(self.assembly),
+                                    op.moving, op.fixed, removal)
+            self._free[memo] = hit
+        return hit
 
     def is_interlocked(self, subset: Iterable[str]) -> bool:
         subset = frozenset(subset)

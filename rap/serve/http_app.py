@@ -52,7 +52,10 @@ requests' simulation batches go to the shared pool at the same time (``SimPool``
 bookkeeping thread-safe), CNN forward passes take turns. Further requests wait in Serve's queue.
 
 The request contract (``ServeConfig``, ``parse_plan_request``) lives in ``rap.serve.api``, which
-imports neither ray nor fastapi.
+imports neither ray nor fastapi. This module is the replica and its endpoints; the FastAPI
+application with the routes that need no replica (the page, the examples, the one-line errors) is
+``rap.serve.http_api``, and how a request is taken (token, body within its limit, work on a thread
+within a budget) is ``rap.serve.http_requests``.
 
 Running it: ``rap.serve.launch.run_service``. Security: ``run_service`` refuses a non-loopback ``host`` without a token (``ServeConfig.check``);
 with a token every endpoint but the documentation, the page's static files and the examples needs
@@ -64,8 +67,6 @@ proxy) or on a private network, as docs/CLUSTER.md says.
 # No "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time,
 # and Serve rebuilds the class-based routes where string annotations do not resolve.
 
-import asyncio
-import hmac
 import json
 import logging
 import threading
@@ -75,24 +76,20 @@ from dataclasses import asdict
 from pathlib import Path
 
 from fastapi import Query, Request, Security
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse, Response
-from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
-from fastapi.staticfiles import StaticFiles
-from fastapi_offline import FastAPIOffline
+from fastapi.responses import JSONResponse, Response
+from fastapi.security import HTTPAuthorizationCredentials
 from ray import serve
-from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from rap import __version__
 from rap.assembly import Assembly, assembly_to_json
-from rap.errors import InputError, RapError
 from rap.plan.methods import needs_model
 
 from rap.serve.api import (DETAILS_HEADER, PLAN_BODY_OPENAPI, UPLOAD_NAME_HELP, UPLOAD_OPENAPI,
                           BadRequest, ServeConfig, parse_plan_body, read_upload)
 from rap.serve.budget import request_limits
 from rap.serve import robot_program
-from rap.serve.examples import UnknownExample, example, example_list
+from rap.serve.http_api import STATIC_DIR, api, inspect_document
+from rap.serve.http_requests import authorised, bearer, off_loop, read_body
 
 __all__ = ["PlanningApp", "build_app", "inspect_document", "APP_NAME", "STATIC_DIR",
            "STOP_GRACE_S"]
@@ -102,84 +99,9 @@ STOP_GRACE_S = 30.0  # on stop (SIGTERM, Ctrl-C), requests in flight get this lo
 _log = logging.getLogger("rap.serve.http_app")
 
 
-def _error(status: int, message: str, headers: dict | None = None) -> JSONResponse:
-    line = " ".join(str(message).split())[:500] or "error"
-    return JSONResponse({"error": line}, status_code=status, headers=headers)
-
-
-#: the planning page (index.html, app.js, app.css), served at / and /static/ without a token
-STATIC_DIR = Path(__file__).parent / "static"
-
-# FastAPIOffline: FastAPI whose /docs and /redoc load Swagger UI and ReDoc from files shipped in
-# the fastapi-offline package (served at /static/swagger/), not from a CDN: they work offline
-api = FastAPIOffline(
-    title="rap-farm planning service",
-    version=__version__,
-    description="Robust assembly sequences of planar parts (RAP, simulator-only, optimal, random). "
-                "POST an assembly to /plan; the answer is the document `rap-farm plan --out` "
-                "writes. POST a drawing (DXF, SVG) or an assembly file to /import or /inspect. "
-                "Errors are `{\"error\": \"one line\"}` with a 4xx/5xx status. The planning "
-                "page is at /, the example assemblies shipped in the package at /examples.",
-    static_url="/static/swagger",
-    swagger_ui_parameters={"validatorUrl": None},  # no badge fetched from swagger.io
-)
-api.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
-_bearer = HTTPBearer(auto_error=False, description="Needed when the service was started with a "
-                                                   "token (always beyond loopback).")
-
-@api.get("/", include_in_schema=False)
-async def page():
-    """The planning page (rap/serve/static): upload, NDBG circle, plan, storyboard."""
-    return FileResponse(STATIC_DIR / "index.html")
-
-
-# the examples are public, as the page is: the package's own data, no token (sync: read on a thread)
-@api.get("/examples", summary="The example assemblies shipped in the package")
-def list_examples():
-    """``[{"name", "parts"}]`` sorted by name: what the page offers to try with one click."""
-    return example_list()
-
-
-@api.get("/examples/{name}", summary="A shipped example's assembly JSON")
-def get_example(name: str):
-    """The example's assembly JSON, as ``/import`` answers for its file; 404 for another name."""
-    try:
-        return JSONResponse(example(name))
-    except UnknownExample as exc:
-        return _error(404, str(exc))
-
-
-def inspect_document(assembly: Assembly) -> dict:
-    """What ``POST /inspect`` answers: ``{"assembly": <assembly JSON>, "cells": [{"kind":
-    "vertex"|"arc", "direction": [dx, dy], "partitions": n}, ...]}``, the NDBG's cells CCW from
-    angle 0 (as ``rap-farm inspect --json``) with the number of partitions of the whole assembly
-    each admits (what ``rap-farm show`` shades its circle by, capped at 100,000)."""
-    from rap.geometry.ndbg import build_ndbg
-    from rap.geometry.partitions import cell_partition_counts
-
-    ndbg = build_ndbg(assembly)
-    counts = cell_partition_counts(ndbg, frozenset(assembly.ids))
-    return {"assembly": assembly_to_json(assembly),
-            "cells": [{"kind": c.kind, "direction": [c.unit[0], c.unit[1]], "partitions": n}
-                      for c, n in zip(ndbg.cells, counts)]}
-
-
-@api.exception_handler(StarletteHTTPException)
-async def _http_error(request: Request, exc: StarletteHTTPException):
-    return _error(exc.status_code, exc.detail if isinstance(exc.detail, str) else "error",
-                  getattr(exc, "headers", None))
-
-
-@api.exception_handler(RequestValidationError)
-async def _validation_error(request: Request, exc: RequestValidationError):
-    first = exc.errors()[0] if exc.errors() else {}
-    return _error(400, f"invalid request: {first.get('msg', 'validation failed')}")
-
-
 #: the replica asks for no CPU and stays on the head node, next to the HTTP proxy (HeadOnly) and the
 #: score cache file; its simulation actors spread over the cluster
 _HEAD = "node:__internal_head__"
-_DRAIN = 8  # bodies up to this many times the limit are read (and dropped) before the 413
 
 
 @serve.deployment(name="planner", num_replicas=1,
@@ -209,14 +131,8 @@ class PlanningApp:
 
     # -- helpers -------------------------------------------------------------------------------------
     def _authorised(self, creds: HTTPAuthorizationCredentials | None) -> JSONResponse | None:
-        token = self.config.token
-        if not token:
-            return None
-        if creds is None or creds.scheme.lower() != "bearer" or not hmac.compare_digest(
-                creds.credentials.encode(), token.encode()):
-            return _error(401, "missing or wrong bearer token (Authorization: Bearer <token>)",
-                          {"WWW-Authenticate": "Bearer"})
-        return None
+        """None when the request carries this service's token (or it has none), else the 401."""
+        return authorised(self.config.token, creds)
 
     def _read(self, body: bytes):
         """``parse_plan_body`` with this service's limits (runs on a reader thread)."""
@@ -234,42 +150,6 @@ class PlanningApp:
         return read_upload(name, body, max_parts=self.config.max_parts,
                            max_vertices=self.config.max_vertices)
 
-    async def _body(self, request: Request) -> bytes | JSONResponse:
-        """The request's body, or the 413 answer when it is over ``max_body_bytes``."""
-        limit = self.config.max_body_bytes
-        length = request.headers.get("content-length")
-        if length is not None and (not length.isdigit() or int(length) > _DRAIN * limit):
-            return _error(413, f"request body over {limit} bytes")
-        body, size = bytearray(), 0
-        async for chunk in request.stream():  # a body a little too large is read and dropped,
-            size += len(chunk)  # so that the client, still sending, gets the 413 and no reset
-            if size <= limit:
-                body += chunk
-            elif size > _DRAIN * limit:
-                break
-        if size > limit:
-            return _error(413, f"request body over {limit} bytes")
-        return bytes(body)
-
-    async def _off_loop(self, executor, budget_s: float, late: str, what: str, fn, *args):
-        """``fn(*args)`` on ``executor``'s threads, never on the event loop: its value, or the
-        answer to send instead (``BadRequest``: its status; past ``budget_s``: 503 with ``late``;
-        ``InputError``: 400; any other error: 500, "``what`` failed: ...", one line, and the
-        replica keeps serving)."""
-        loop = asyncio.get_running_loop()
-        try:
-            return await asyncio.wait_for(loop.run_in_executor(executor, fn, *args),
-                                          timeout=budget_s)
-        except BadRequest as exc:
-            return _error(exc.status, exc.message)
-        except asyncio.TimeoutError:
-            return _error(503, late)
-        except RapError as exc:
-            return _error(400 if isinstance(exc, InputError) else 500, str(exc))
-        except Exception as exc:  # never a traceback to the client, never a dead replica
-            _log.exception("%s failed", what)
-            return _error(500, f"{what} failed: {type(exc).__name__}: {exc}")
-
     async def _read_request(self, request: Request, creds: HTTPAuthorizationCredentials | None,
                             what: str, fn, *args):
         """Check the token, take the body (at most ``max_body_bytes``) and read it with
@@ -278,13 +158,13 @@ class PlanningApp:
         denied = self._authorised(creds)
         if denied is not None:
             return denied
-        body = await self._body(request)
+        body = await read_body(request, self.config.max_body_bytes)
         if isinstance(body, JSONResponse):
             return body
         budget = self.config.parse_budget_s
-        return await self._off_loop(self._readers, budget, f"{what} was not read and validated "
-                                    f"within {budget:g} s; send a smaller one", f"reading {what}",
-                                    fn, *args, body)
+        return await off_loop(self._readers, budget, f"{what} was not read and validated "
+                              f"within {budget:g} s; send a smaller one", f"reading {what}",
+                              fn, *args, body)
 
     def _plan(self, body, arrived: float):
         """Plan ``body`` (a ``PlanBody``) within what is left of its budget (``rap.serve.budget``)."""
@@ -312,7 +192,7 @@ class PlanningApp:
 
     # -- endpoints ------------------------------------------------------------------------------------
     @api.get("/health", summary="Ready to plan")
-    async def health(self, creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+    async def health(self, creds: HTTPAuthorizationCredentials | None = Security(bearer)):
         denied = self._authorised(creds)
         if denied is not None:
             return denied
@@ -324,14 +204,14 @@ class PlanningApp:
 
     @api.post("/plan", summary="Plan a robust assembly sequence", openapi_extra=PLAN_BODY_OPENAPI)
     async def plan(self, request: Request,
-                   creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+                   creds: HTTPAuthorizationCredentials | None = Security(bearer)):
         arrived = time.monotonic()  # the request's budget counts from here
         # reading and exact validation run off the event loop: /health keeps answering
         read = await self._read_request(request, creds, "the assembly", self._read)
         if isinstance(read, JSONResponse):
             return read
         left = read.budget_s + self.config.answer_grace_s - (time.monotonic() - arrived)
-        result = await self._off_loop(
+        result = await off_loop(
             self._executor, max(left, 1e-3),
             f"planning took longer than its budget of {read.budget_s:g} s; ask with a larger "
             f"budget_s or fewer simulations", f"planning {read.assembly.name} with {read.method}",
@@ -347,7 +227,7 @@ class PlanningApp:
               openapi_extra=UPLOAD_OPENAPI)
     async def import_drawing(self, request: Request,
                              name: str | None = Query(None, description=UPLOAD_NAME_HELP),
-                             creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+                             creds: HTTPAuthorizationCredentials | None = Security(bearer)):
         """The body is the file's bytes; 200 with the assembly JSON that ``rap-farm import``
         writes (read exactly, validated), ready for ``POST /plan``."""
         got = await self._read_request(request, creds, str(name), self._read_upload, name)
@@ -357,7 +237,7 @@ class PlanningApp:
               openapi_extra=UPLOAD_OPENAPI)
     async def inspect(self, request: Request,
                       name: str | None = Query(None, description=UPLOAD_NAME_HELP),
-                      creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+                      creds: HTTPAuthorizationCredentials | None = Security(bearer)):
         """As ``/import``, and the NDBG: 200 with ``{"assembly": <assembly JSON>, "cells":
         [{"kind", "direction", "partitions"}]}`` (``inspect_document``), what the planning page
         draws."""
@@ -365,24 +245,24 @@ class PlanningApp:
         if isinstance(got, JSONResponse):
             return got
         budget = self.config.plan_budget_s + self.config.answer_grace_s
-        doc = await self._off_loop(self._executor, budget, f"the NDBG of {got.name} was not built "
-                                   f"within {budget:g} s", f"the NDBG of {got.name}",
-                                   inspect_document, got)
+        doc = await off_loop(self._executor, budget, f"the NDBG of {got.name} was not built "
+                             f"within {budget:g} s", f"the NDBG of {got.name}",
+                             inspect_document, got)
         return doc if isinstance(doc, JSONResponse) else JSONResponse(doc)
 
     @api.post("/export", summary="A plan as a robot program, checked by the arm's kinematics",
               openapi_extra=robot_program.EXPORT_OPENAPI)
     async def export(self, request: Request,
-                     creds: HTTPAuthorizationCredentials | None = Security(_bearer)):
+                     creds: HTTPAuthorizationCredentials | None = Security(bearer)):
         """The plan's robot program as an attachment (``rap.serve.robot_program``)."""
         read = await self._read_request(request, creds, "the export request", lambda body: (
             robot_program.parse_export_request(body, max_parts=self.config.max_parts,
                                                max_vertices=self.config.max_vertices)))
         if isinstance(read, JSONResponse):
             return read
-        got = await self._off_loop(self._executor, self.config.plan_budget_s + self.config.
-                                   answer_grace_s, "the robot program took longer than its budget",
-                                   "the robot program", robot_program.program_file, read)
+        got = await off_loop(self._executor, self.config.plan_budget_s + self.config.answer_grace_s,
+                             "the robot program took longer than its budget",
+                             "the robot program", robot_program.program_file, read)
         return got if isinstance(got, JSONResponse) else Response(
             got.text, media_type=got.media_type, headers=got.headers)
 

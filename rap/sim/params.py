@@ -37,6 +37,10 @@ class SimParams:
     poly_radius: float = 0.0  # pymunk polygon rounding radius (0: exact convex pieces)
     collision_slop: float = 0.05  # Chipmunk allowed penetration, world units
     iterations: int = 10  # Chipmunk solver iterations per step
+    # a part of more convex pieces than this is simulated through at most this many, merged
+    # within shape_tolerance x its own extent (doubled where the count needs it): rap.sim.outline
+    shape_pieces: int = 32
+    shape_tolerance: float = 0.002
 
     # --- time -------------------------------------------------------------------------------
     dt_s: float = 1.0 / 120.0  # physics step
@@ -74,6 +78,8 @@ class SimParams:
             raise ValueError("eta must be non-negative")
         if not (self.dt_s > 0 and self.time_limit_s > 0 and self.world_size > 0):
             raise ValueError("dt_s, time_limit_s and world_size must be positive")
+        if self.shape_pieces < 1 or self.shape_tolerance < 0:
+            raise ValueError("shape_pieces must be at least 1 and shape_tolerance non-negative")
 
     @property
     def steps(self) -> int:
@@ -95,8 +101,12 @@ class SimParams:
         ``retire`` counts only when off (the default's fingerprint, and so every label key, is as
         it always was): what else is in the space changes the order in which Chipmunk's solver
         visits a body's contacts, so a trial that touches several pieces at once can end otherwise
-        without retirement (2 of 8 grid operations moved by one success). Computed once per
-        instance (planners ask for it per operation).
+        without retirement (2 of 8 grid operations moved by one success). ``shape_pieces`` and
+        ``shape_tolerance`` count only when changed: at their defaults every part of at most 32
+        convex pieces is simulated exactly as before they existed, and every part of the
+        corpus, the reference and the unseen assemblies has at most 11 (a part of more, a
+        curved part from a drawing, was never labelled). Computed once per instance (planners
+        ask for it per operation).
         """
         return self._fingerprint
 
@@ -105,6 +115,9 @@ class SimParams:
         d = self.to_dict()
         if d["retire"]:
             d.pop("retire")
+        for name in ("shape_pieces", "shape_tolerance"):  # counted only when changed (docstring)
+            if d[name] == SimParams.__dataclass_fields__[name].default:
+                d.pop(name)
         text = json.dumps(d, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -2,7 +2,9 @@
 
 Model (paper, section "Physics Simulation"): the fixed subassembly is static; the moving one is a
 single rigid dynamic body (all its parts' convex pieces as ``pymunk.Poly`` with radius
-``params.poly_radius``, 0 by default, uniform density); no gravity. A proportional feedback
+``params.poly_radius``, 0 by default, uniform density; a part of more than ``params.shape_pieces``
+pieces, a curved part from a drawing, through at most that many, within ``shape_tolerance`` of
+it: ``rap.sim.outline``); no gravity. A proportional feedback
 controller drives the body along the straight path from the start (``rap.sim.placement``) to the
 goal: a translational force ``F = m (kp (c - x) - kd v)`` toward a carrot ``c`` that advances along
 the path at ``carrot_speed`` but stays at most ``carrot_lead`` ahead of the body's projection on the
@@ -46,7 +48,8 @@ from rap.operation import Operation
 from rap.sim import kernel
 from rap.sim.params import DEFAULT_PARAMS, SimParams
 from rap.sim.placement import placement
-from rap.sim.shapes import area_centroid, assembly_pieces
+from rap.sim.outline import assembly_outlines
+from rap.sim.shapes import area_centroid
 
 __all__ = ["SimResult", "simulate", "Scene", "build_scene", "run_trials", "RunInfo", "Trajectories",
            "warm_up"]
@@ -113,7 +116,7 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
     pl = placement(assembly, operation, params.start_gap)
     scale = params.world_size / pl.extent
     cx, cy = pl.center
-    pieces = assembly_pieces(assembly)
+    pieces = assembly_outlines(assembly, params.shape_tolerance, params.shape_pieces)
 
     def world(poly):
         return [((x - cx) * scale, (y - cy) * scale) for x, y in poly]

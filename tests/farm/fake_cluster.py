@@ -22,7 +22,9 @@ simulator behind a gate: a worker's first operation waits until ``RAP_TEST_GATE_
 alive and every CPU of the cluster is taken (all actors placed), once for the whole cluster (a
 file marks the gate open), then each operation pauses ``RAP_TEST_PAUSE_S``. A run thus outlasts
 the nodes' arrival whatever the machine's speed, without a timed assertion; labels are the real
-simulator's.
+simulator's. While ``hold()``'s file exists, a worker process's operations after its first
+``HOLD_AFTER`` wait (``release()`` removes it): a test that must act on a run mid-run (kill a
+node) holds it there instead of hoping the pauses last long enough.
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ __all__ = ["FakeCluster", "GATED", "free_port", "gated_simulate"]
 
 RAY = str(Path(sys.executable).with_name("ray"))
 MARK = "RAP_FAKE_CLUSTER_ID"
+HOLD_AFTER = 3  # a held worker process simulates this many operations, then waits (module doc)
 
 #: the real simulator (renderer, warm-up) behind the gate described in the module docstring
 GATED = Backend(simulate="tests.farm.fake_cluster:gated_simulate",
@@ -142,6 +145,7 @@ class FakeCluster:
         self.address = f"127.0.0.1:{self.port}"
         self.dashboard_url = f"http://127.0.0.1:{self.dashboard_port}"
         self.gate_file = self.tmp / "gate-open"
+        self.hold_file = self.tmp / "hold"
         base = dict(os.environ if env is None else env)
         path = [str(ROOT), base.get("PYTHONPATH", "")]
         base["PYTHONPATH"] = os.pathsep.join(path).rstrip(os.pathsep)
@@ -152,7 +156,8 @@ class FakeCluster:
         self.env = base
         self._cluster_env = dict(base, RAY_FAKE_CLUSTER="1", RAP_TEST_GATE_NODES=str(gate_nodes),
                                  RAP_TEST_PAUSE_S=str(pause_s),
-                                 RAP_TEST_GATE_FILE=str(self.gate_file), **{MARK: self.id})
+                                 RAP_TEST_GATE_FILE=str(self.gate_file),
+                                 RAP_TEST_HOLD_FILE=str(self.hold_file), **{MARK: self.id})
         self.head: subprocess.Popen | None = None
         self._stopped = False
         atexit.register(self.stop)
@@ -277,6 +282,13 @@ class FakeCluster:
     def reset_gate(self) -> None:
         self.gate_file.unlink(missing_ok=True)
 
+    def hold(self) -> None:
+        """Hold the runs started from now on mid-run (module doc) until ``release()``."""
+        self.hold_file.touch()
+
+    def release(self) -> None:
+        self.hold_file.unlink(missing_ok=True)
+
 
 def _alive(pid: int) -> bool:
     try:
@@ -303,13 +315,21 @@ def _wait_for_gate() -> None:
         time.sleep(0.25)
 
 
+_SIMULATED = [0]  # operations simulated by this worker process
+
+
 def gated_simulate(assembly, operation, params, rng):
-    """``rap.sim.simulator.simulate`` after the cluster-wide gate, then a pause (module doc)."""
+    """``rap.sim.simulator.simulate`` after the cluster-wide gate and the hold, then a pause
+    (module doc)."""
     from rap.sim.simulator import simulate
 
     _wait_for_gate()
+    hold = os.environ.get("RAP_TEST_HOLD_FILE", "")
+    while _SIMULATED[0] >= HOLD_AFTER and hold and os.path.exists(hold):
+        time.sleep(0.25)  # until the test releases the run
+    _SIMULATED[0] += 1
     res = simulate(assembly, operation, params, rng)
-    time.sleep(float(os.environ.get("RAP_TEST_PAUSE_S", "0") or 0))
+    time.sleep(float(os.environ.get("RAP_TEST_PAUSE_S", "0") or 0))  # the work's duration
     return res
 
 

@@ -6,11 +6,13 @@
   subset of ``limit``), so farm tests know exactly which operations a run takes.
 * ``render(assembly, op, size=64)``: a deterministic uint8 [2, size, size] image of the operation.
 * ``simulate(assembly, op, params, rng)``: a fast deterministic fake of ``rap.sim.simulator.simulate``
-  that sleeps ``params.time_limit_s`` milliseconds per operation (8 ms by default; ``slow_params``
-  makes it 60 ms, so that a test can kill things mid-run in any process).
-* ``held_simulate``: ``simulate``, except that a worker's third and later operations wait while the
-  file named by ``RAP_TEST_HOLD`` exists: a run is held mid-run, with rows committed, until the
-  test removes the file (tests/farm/test_sigterm.py).
+  that sleeps ``params.time_limit_s`` milliseconds per operation (8 ms by default): the work's
+  duration, never what orders a test's processes.
+* ``held_simulate``: ``simulate``, except that a worker's operations after its first
+  ``RAP_TEST_HOLD_AFTER`` (2 by default) wait while the file named by ``RAP_TEST_HOLD`` exists: a
+  run is held mid-run, with rows committed, until the test removes the file, whatever the
+  machine's speed (tests/farm/test_sigterm.py, test_writers.py, test_driver.py). A worker joined
+  to a cluster gets both variables through its job's ``runtime_env`` (``hold_env``).
 """
 
 from __future__ import annotations
@@ -76,19 +78,21 @@ _SIMULATED = [0]  # operations simulated by this process (a worker)
 
 
 def held_simulate(assembly, op, params, rng):
-    """``simulate``, held after a worker's second operation while ``$RAP_TEST_HOLD`` exists."""
+    """``simulate``, held after a worker's ``$RAP_TEST_HOLD_AFTER`` operations (2 by default) while
+    ``$RAP_TEST_HOLD`` exists (module doc)."""
     _SIMULATED[0] += 1
     hold = os.environ.get("RAP_TEST_HOLD", "")
-    while _SIMULATED[0] > 2 and hold and os.path.exists(hold):
-        time.sleep(0.05)
+    after = int(os.environ.get("RAP_TEST_HOLD_AFTER", "") or 2)
+    while _SIMULATED[0] > after and hold and os.path.exists(hold):
+        time.sleep(0.05)  # until the test removes the file
     return simulate(assembly, op, params, rng)
 
 
-def slow_params(trials: int = 100):
-    """Simulator parameters whose fake simulation takes 60 ms per operation."""
-    from rap.sim.params import SimParams
-
-    return SimParams(trials=trials, time_limit_s=60.0)
+def hold_env() -> dict:
+    """``RAP_TEST_HOLD`` and ``RAP_TEST_HOLD_AFTER`` of this process's environment, for a job's
+    ``runtime_env={"env_vars": ...}``: the workers of a cluster joined by address do not inherit
+    the driver's environment."""
+    return {k: os.environ[k] for k in ("RAP_TEST_HOLD", "RAP_TEST_HOLD_AFTER") if k in os.environ}
 
 
 def simulate_or_fail(assembly, op, params, rng):

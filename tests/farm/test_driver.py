@@ -135,20 +135,23 @@ def test_scores_do_not_depend_on_worker_count(reference, ray_local, standin_enum
     assert table(out) == table(reference[0])
 
 
+# a run held mid-run (tests.farm.standin.held_simulate: each worker after 6 operations, while the
+# file $RAP_TEST_HOLD exists), so that it is killed with two shards written whatever the speed
 _KILL_SCRIPT = r"""
 import sys, dataclasses
 sys.path.insert(0, {root!r})
 import ray
-ray.init(address={address!r}, runtime_env={{"env_vars": {{"PYTHONPATH": {root!r}}}}},
+from tests.farm import standin
+ray.init(address={address!r},
+         runtime_env={{"env_vars": {{"PYTHONPATH": {root!r}, **standin.hold_env()}}}},
          log_to_driver=False)
 import rap.farm.driver as driver
 import rap.labelling.selection as selection
-from tests.farm import standin
 from tests.farm.conftest import FAKE
 selection.select_operations = standin.select_operations
-cfg = driver.LabelConfig(assemblies={assemblies!r}, out={out!r}, trials=3, seed=5, backend=FAKE,
-                         progress=False, flush_rows=3, workers=2, batch_size=1,
-                         params_factory="tests.farm.standin:slow_params")
+held = dataclasses.replace(FAKE, simulate="tests.farm.standin:held_simulate")
+cfg = driver.LabelConfig(assemblies={assemblies!r}, out={out!r}, trials=3, seed=5, backend=held,
+                         progress=False, flush_rows=3, workers=2, batch_size=1)
 driver.run_label(cfg)
 """
 
@@ -160,16 +163,21 @@ def test_driver_sigkill_leaves_no_partial_files_and_rerun_completes(ray_local, f
     address = ray_local.get_runtime_context().gcs_address
     out = tmp_path / "killed"
     script = _KILL_SCRIPT.format(root=str(ROOT), assemblies=TWO, out=str(out), address=address)
-    proc = subprocess.Popen([sys.executable, "-c", script], env=ray_env(), cwd=str(ROOT),
+    hold = tmp_path / "hold"
+    hold.touch()
+    env = dict(ray_env(), RAP_TEST_HOLD=str(hold), RAP_TEST_HOLD_AFTER="6")
+    proc = subprocess.Popen([sys.executable, "-c", script], env=env, cwd=str(ROOT),
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         deadline = time.time() + 90
-        while time.time() < deadline and len(list(out.glob("*/part-*.parquet"))) < 2:
+        while len(list(out.glob("*/part-*.parquet"))) < 2:  # polls the files it commits
             assert proc.poll() is None, proc.stderr.read().decode()[-2000:]
+            assert time.time() < deadline, "no two shards in 90 s"
             time.sleep(0.05)
         proc.send_signal(signal.SIGKILL)
         proc.wait(30)
     finally:
+        hold.unlink()
         if proc.poll() is None:
             proc.kill()
             proc.wait()
@@ -182,7 +190,7 @@ def test_driver_sigkill_leaves_no_partial_files_and_rerun_completes(ray_local, f
     for f in out.glob("*/part-*.parquet"):
         pads.dataset(str(f), format="parquet").to_table()
     c = dataclasses.replace(cfg(out), seed=5, trials=3, max_ops_per_assembly=None, backend=FAKE,
-                            flush_rows=50, params_factory="tests.farm.standin:slow_params")
+                            flush_rows=50)
     s = driver.run_label(c)
     assert s.existing == n_partial
     assert not list(out.glob("*/.tmp-*"))

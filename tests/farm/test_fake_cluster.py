@@ -81,6 +81,7 @@ def test_worker_node_killed_mid_run_loses_and_duplicates_no_row(cluster, tmp_pat
     once, and the labels equal a local run's (``scripts/label_burst.py``, no Ray) with the same
     seed."""
     cluster.reset_gate()
+    cluster.hold()  # the run cannot end before the node is killed (released after the kill)
     out = tmp_path / "ds"
     k = 30
     proc = subprocess.Popen(label_cmd(cluster, out, "--workers", "4", "--flush-rows", "2",
@@ -103,8 +104,10 @@ def test_worker_node_killed_mid_run_loses_and_duplicates_no_row(cluster, tmp_pat
                     break
         os.kill(cluster.raylet_pid(victim), signal.SIGKILL)
         assert proc.poll() is None  # killed mid-run
+        cluster.release()
         stdout, stderr = proc.communicate(timeout=600)
     finally:
+        cluster.release()
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 0, stderr[-3000:]

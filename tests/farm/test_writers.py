@@ -15,6 +15,7 @@ import socket
 import subprocess
 import sys
 import time
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
 import pyarrow.parquet as pq
 import pytest
@@ -29,18 +30,24 @@ pytestmark = pytest.mark.ray
 
 TWO = (str(ASSEMBLIES / "grid.json"), str(ASSEMBLIES / "triangles.json"))
 
-# `rap-farm label ...` in another process, on this module's Ray, with the stand-ins: slow fake
-# physics (60 ms an operation, a row a batch, a shard every 3 rows), so that a run lasts seconds.
+# `rap-farm label ...` in another process, on this module's Ray, with the stand-ins (a row a batch,
+# a shard every 3 rows): held mid-run while the file $RAP_TEST_HOLD exists, each worker after its
+# first $RAP_TEST_HOLD_AFTER operations (tests.farm.standin.held_simulate), so that the test, not
+# the machine's speed, decides when the run may end.
 _LABEL_SCRIPT = r"""
 import dataclasses, sys
 sys.path.insert(0, {root!r})
 import rap.farm.driver as driver
+import rap.farm.runtime as runtime
 import rap.labelling.selection as selection
 from tests.farm import standin
 from tests.farm.conftest import FAKE
 selection.select_operations = standin.select_operations
-fix = lambda c: dataclasses.replace(c, backend=FAKE, batch_size=1, flush_rows=3,
-                                    params_factory="tests.farm.standin:slow_params")
+held = dataclasses.replace(FAKE, simulate="tests.farm.standin:held_simulate")
+if standin.hold_env():  # the workers of the cluster joined get the hold through the job
+    init = runtime.init_ray
+    runtime.init_ray = lambda **kw: init(**kw, runtime_env={{"env_vars": standin.hold_env()}})
+fix = lambda c: dataclasses.replace(c, backend=held, batch_size=1, flush_rows=3)
 prepare, run = driver.prepare, driver.run_label
 driver.prepare = lambda c, *a, **k: prepare(fix(c), *a, **k)
 driver.run_label = lambda c, plan=None, **k: run(fix(c), plan, **k)
@@ -54,10 +61,18 @@ def argv(out, *extra) -> list[str]:
             "--max-ops-per-assembly", "0", "--quiet", *extra]
 
 
-def label_process(out, address) -> subprocess.Popen:
+#: a held run has labelled at least this many rows: two shards of 3 (``_LABEL_SCRIPT``)
+HOLD_AFTER = 6
+
+
+def label_process(out, address, hold=None) -> subprocess.Popen:
+    """``_LABEL_SCRIPT`` labelling ``TWO`` into ``out``; held while the file ``hold`` exists."""
+    env = ray_env()
+    if hold is not None:
+        env.update(RAP_TEST_HOLD=str(hold), RAP_TEST_HOLD_AFTER=str(HOLD_AFTER))
     return subprocess.Popen([sys.executable, "-c", _LABEL_SCRIPT.format(root=str(ROOT)),
                              *argv(out, "--address", address)],
-                            env=ray_env(), cwd=str(ROOT), stdout=subprocess.PIPE,
+                            env=env, cwd=str(ROOT), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
 
@@ -108,8 +123,21 @@ def test_two_concurrent_runs_on_one_out_one_refused_naming_the_other_and_no_key_
 
     address = ray_local.get_runtime_context().gcs_address
     out = tmp_path / "ds"
-    procs = [label_process(out, address) for _ in range(2)]
-    done = [p.communicate(timeout=240) + (p.returncode,) for p in procs]
+    hold = tmp_path / "hold"
+    hold.touch()  # the run that takes the lock cannot end before the other has been refused
+    procs = [label_process(out, address, hold) for _ in range(2)]
+    try:
+        with ThreadPoolExecutor(2) as pool:
+            outputs = [pool.submit(p.communicate, timeout=240) for p in procs]
+            wait(outputs, timeout=240, return_when=FIRST_COMPLETED)  # the refused one
+            hold.unlink()
+            done = [o.result() + (p.returncode,) for o, p in zip(outputs, procs)]
+    finally:
+        hold.unlink(missing_ok=True)
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait(30)
     codes = sorted(d[2] for d in done)
     assert codes == [0, 3], [d[1][-2000:] for d in done]
     winner = procs[[d[2] for d in done].index(0)]
@@ -130,8 +158,13 @@ def test_a_run_killed_with_sigkill_does_not_block_the_next(ray_local, tmp_path):
 
     address = ray_local.get_runtime_context().gcs_address
     out = tmp_path / "ds"
-    proc = label_process(out, address)
-    killed_after(proc, lambda: len(ds.shard_files(out)) >= 2)
+    hold = tmp_path / "hold"
+    hold.touch()  # the run cannot end before it is killed
+    proc = label_process(out, address, hold)
+    try:
+        killed_after(proc, lambda: len(ds.shard_files(out)) >= 2)
+    finally:
+        hold.unlink()
     before = open_dataset(out).count_rows()
     total = total_operations(standin)
     assert 0 < before < total

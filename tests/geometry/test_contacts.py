@@ -14,7 +14,7 @@ from shapely.geometry import Point, Polygon
 
 from rap.assembly import Assembly, Part
 from rap.geometry.contacts import (Contact, contact_segments, contact_table, contacts_within,
-                                   touching)
+                                   meeting_pairs, touching)
 from rap.geometry.families import generate
 from rap.geometry.families.simple import random_tiling
 from tests.geometry.fixtures import (CORNER_TOUCH, FAR_APART, FRAMED, GRID3, TWO_SIDE_BY_SIDE,
@@ -153,3 +153,41 @@ def test_agrees_with_shapely(seed, kind):
             back = contact_segments(asm, hi, lo)
             assert [(k.p, k.q, (-k.normal[0], -k.normal[1])) for k in back] == \
                 [(k.p, k.q, k.normal) for k in cs]
+
+
+@pytest.mark.parametrize("asm,expected", [
+    (FAR_APART, set()),
+    (TWO_SIDE_BY_SIDE, {("a", "b")}),
+    (CORNER_TOUCH, {("a", "b")}),  # vertex to vertex: no contact, but the parts meet
+    (FRAMED, {("core", "frame")}),
+    (make("loose", [{"id": "frame", "polygon": square(0, 0, 10), "holes": [square(3, 3, 4)]},
+                    {"id": "core", "polygon": square(4, 4, 2)}]), set()),
+    (make("point", [{"id": "a", "polygon": square(0, 0, 2)},
+                    {"id": "b", "polygon": [[1, 2], [3, 4], [0, 4]]}]), {("a", "b")}),
+])
+def test_meeting_pairs(asm, expected):
+    """Closed polygons that share a point, vertex-vertex included (the contact table leaves that
+    out), exactly: a hair's gap is apart."""
+    assert meeting_pairs(asm) == expected
+
+
+def test_meeting_pairs_are_exact_at_a_tiny_gap():
+    gap = make("gap", [{"id": "a", "polygon": square(0, 0)},
+                       {"id": "b", "polygon": [[Decimal("1.000001"), 0], [2, 0], [2, 1],
+                                               [Decimal("1.000001"), 1]]}])
+    assert meeting_pairs(gap) == set()
+    assert meeting_pairs(_moved(TWO_SIDE_BY_SIDE, 7, -3, 5)) == {("a", "b")}
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10 ** 6), st.integers(0, 2))
+def test_meeting_pairs_agree_with_shapely(seed, kind):
+    """Every pair of the contact table meets, and shapely's closed-set test agrees on the rest."""
+    asm = _sample(seed, kind)
+    polys = {p.id: Polygon(p.float_outer(), p.float_holes()) for p in asm.parts}
+    meet = meeting_pairs(asm)
+    assert set(contact_table(asm)) <= meet
+    for i, a in enumerate(asm.ids):
+        for b in asm.ids[i + 1:]:
+            lo, hi = sorted((a, b))
+            assert ((lo, hi) in meet) == polys[lo].intersects(polys[hi])

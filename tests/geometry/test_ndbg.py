@@ -9,10 +9,12 @@ from hypothesis import strategies as st
 
 from rap.geometry.exact import angle_key, in_open_arc
 from rap.geometry.families.simple import random_tiling
+from rap.geometry.contacts import meeting_pairs
 from rap.geometry.ndbg import (blocked_at, build_ndbg, cell_at, cell_index,
-                               is_feasible_operation)
+                               is_feasible_operation, is_free_operation, ndbg_of)
 
-from .fixtures import CORNER_TOUCH, DECIMALS, FAR_APART, FRAMED, GRID2, L_AND_SQUARE, SINGLE, VALID
+from .fixtures import (CORNER_TOUCH, DECIMALS, FAR_APART, FRAMED, FRAMED_LOOSE, GRID2,
+                       L_AND_SQUARE, SINGLE, TWO_SIDE_BY_SIDE, VALID, make, square)
 
 vec = st.tuples(st.integers(-40, 40), st.integers(-40, 40)).filter(lambda v: v != (0, 0))
 
@@ -102,3 +104,59 @@ def test_feasibility_query():
     assert is_feasible_operation(nd, ["r1c0", "r1c1"], ["r0c0", "r0c1"], (0.0, 1.0))
     assert not is_feasible_operation(nd, ["r1c0", "r1c1"], ["r0c0", "r0c1"], (0.01, -1.0))
     assert blocked_at(nd, (2, 0)) == nd.cells[0].outs
+
+
+# a slides along b's bottom edge when it leaves to the right: its sweep grazes b, its goal does not
+GRAZE = make("graze", [{"id": "a", "polygon": square(0, 0)}, {"id": "b", "polygon": square(2, 1)}])
+
+
+@pytest.mark.parametrize("asm,moving,fixed,removal,free", [
+    (FAR_APART, "a", "b", (-1, 0), True),  # away from b
+    (FAR_APART, "a", "b", (0, 1), True),
+    (FAR_APART, "a", "b", (1, 0), False),  # through b
+    (FAR_APART, "a", "b", (1, 1), True),  # b's shadow: the open arc from (9, -1) to (9, 1)
+    (GRID2, "r1c1", "r0c0,r0c1,r1c0", (1, 1), False),  # touching at the goal
+    (TWO_SIDE_BY_SIDE, "a", "b", (-1, 0), False),  # separable, but touching
+    (CORNER_TOUCH, "a", "b", (-1, -1), False),  # a common vertex is a touch
+    (GRAZE, "a", "b", (1, 0), False),  # an arc's end: the sweep grazes b
+    (GRAZE, "a", "b", (1, -1), True),
+    (GRAZE, "a", "b", (-1, 0), True),
+    (FRAMED_LOOSE, "core", "frame,out", (0, 1), False),  # blocked all around, touching nothing
+    (FRAMED_LOOSE, "out", "frame", (1, 0), False),  # out touches the frame
+])
+def test_free_operation(asm, moving, fixed, removal, free):
+    """Free: the moving parts, swept from their place along the removal direction, never meet a
+    fixed part, closed sets (exact; vertex and grazing contacts count)."""
+    got = is_free_operation(ndbg_of(asm), meeting_pairs(asm), moving.split(","), fixed.split(","),
+                            removal)
+    assert got is free
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10 ** 6), vec)
+def test_free_agrees_with_a_swept_union(seed, d):
+    """At directions inside arcs, free agrees with shapely: the swept moving part (its union with
+    its far translate's hull, per convex piece) meets no fixed part."""
+    from shapely.geometry import MultiPoint, Polygon
+    from shapely.ops import unary_union
+
+    rng = np.random.default_rng(seed)
+    asm = make("apart", [{"id": f"p{k}", "polygon": square(int(x), int(y), int(s))}
+                         for k, (x, y, s) in enumerate(zip(rng.choice(60, 3, replace=False) * 3,
+                                                          rng.integers(0, 20, 3),
+                                                          rng.integers(1, 3, 3)))])
+    nd = ndbg_of(asm)
+    if any(c.kind == "vertex" and c.direction == d for c in nd.cells):
+        return  # a critical direction: the graze case, tested above
+    far = 1000
+    a = asm.parts[0]
+    pts = [(float(x), float(y)) for x, y in a.outer]
+    swept = MultiPoint(pts + [(x + far * d[0], y + far * d[1]) for x, y in pts]).convex_hull
+    others = unary_union([Polygon(p.float_outer()) for p in asm.parts[1:]])
+    want = not swept.intersects(others)
+    assert is_free_operation(nd, meeting_pairs(asm), ["p0"], ["p1", "p2"], d) is want
+
+
+def test_ndbg_of_is_one_ndbg_an_assembly():
+    assert ndbg_of(GRID2) is ndbg_of(GRID2)
+    assert ndbg_of(GRID2).criticals == build_ndbg(GRID2).criticals

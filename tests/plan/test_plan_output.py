@@ -155,3 +155,19 @@ def test_the_scorer_reports_each_batch_before_and_after_it():
     scorer.scores(problem, ops)
     scorer.scores(problem, ops)  # all cached: one report, nothing running
     assert seen == [(0, len(ops)), (len(ops), 0), (len(ops), 0)]
+
+
+def test_a_sheet_of_parts_lying_apart_prints_free_steps_and_a_wall_time_with_reading(tmp_path):
+    """Free steps print as such, nothing is simulated, and the wall time counts the reading."""
+    from tests.plan.test_front_door import APART
+
+    out = tmp_path / "plan.json"
+    p = run(write(APART, tmp_path / "apart.json"), "--method", "sim", "--no-ray", "--trials", "8",
+            "--workers", "1", "--out", out, tmp_path=tmp_path)
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(out.read_text())
+    assert doc["robustness"] == 1.0 and doc["robustness_interval"] == [1.0, 1.0]
+    assert {s["source"] for s in doc["steps"]} == {"free"}
+    assert {s["reason"] for s in doc["steps"]} == {"free: no contact"}
+    assert "0 simulations run" in p.stdout and "free: no contact" in p.stdout
+    assert "wall" in p.stdout and "(reading the assembly included)" in p.stdout

@@ -250,12 +250,14 @@ FUZZ_REQUESTS = int(os.environ.get("RAP_FUZZ_REQUESTS", "150"))
 def test_a_tiny_hostile_file_is_refused_at_once_while_health_answers(service):
     tiny = TANGRAM.read_text().replace("[0,0]", "[1e-1000000,0]", 1)  # a few hundred bytes
     huge = TANGRAM.read_text().replace("[0,0]", "[1e10000000,0]", 1)
-    stop, health = threading.Event(), []
+    stop, health = threading.Event(), []  # (asked, answered, status) of each /health call
 
     def poll():  # the harness's bound: each /health answer within 5 s, else the call raises
         while not stop.is_set():
-            health.append(_call(service, "/health", timeout=5)[0])
-            time.sleep(0.05)
+            asked = time.monotonic()
+            status = _call(service, "/health", timeout=5)[0]
+            health.append((asked, time.monotonic(), status))
+            stop.wait(0.05)  # a pace, not an order: the times above say what overlapped
 
     poller = ThreadPoolExecutor(1)
     polling = poller.submit(poll)
@@ -268,15 +270,18 @@ def test_a_tiny_hostile_file_is_refused_at_once_while_health_answers(service):
                 assert doc["error"].startswith("assembly: part 'large-a': coordinate 1E")
         # a valid request at the worst case of validation (a 10,000-vertex star, seconds of exact
         # work on a reader thread): planned or 503 past the read budget, never a blocked loop
-        before = len(health)
+        sent = time.monotonic()
         status, doc, _ = _call(service, "/plan", _body(_star(10_000), method="sim"), timeout=60)
+        answered = time.monotonic()
         assert status in (200, 503), doc
-        assert len(health) > before  # /health was answered while the star was validated
+        # a /health asked after the star and answered before it: answered while it was validated
+        assert any(sent <= asked and done <= answered for asked, done, _ in health), \
+            (sent, answered, health[-5:])
     finally:
         stop.set()
         polling.result(timeout=30)
         poller.shutdown()
-    assert health and set(health) == {200}
+    assert health and {status for _, _, status in health} == {200}
 
 
 def _star(q: int) -> dict:

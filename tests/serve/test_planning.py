@@ -53,9 +53,10 @@ def test_service_serves_two_concurrent_requests_on_the_pool(ray_local):
 
 def test_concurrent_callers_share_simulations_in_flight():
     """Two threads asking for overlapping operations: each operation is simulated once, and both
-    get the same scores as a lone caller."""
+    get the same scores as a lone caller. The backend holds every batch until both callers have
+    asked (each batch says when it has started): the second caller finds the first's operations
+    in flight whatever the machine's speed."""
     import threading
-    import time
 
     from rap.serve.planning import SharedSimulations
     from rap.plan.scoring.cache import CachedScore
@@ -64,27 +65,42 @@ def test_concurrent_callers_share_simulations_in_flight():
     asm = load_assembly(ASSEMBLIES / "hexagon.json")
     problem = PlanningProblem(asm, PARAMS, root_seed=5)
     ops = list(problem.candidates(problem.whole))
-    calls = []
+    assert len(ops) > 6  # the second caller has operations of its own, so simulates too
 
-    class Slow:
+    class Held:
+        """Scores by key; each batch says it has started (``started``), then waits for
+        ``release``."""
+
+        def __init__(self, released: bool = False):
+            self.calls = []
+            self.started = threading.Semaphore(0)
+            self.release = threading.Event()
+            if released:
+                self.release.set()
+
         def simulate_many(self, problem, batch):
-            calls.append([problem.key(op) for op in batch])
-            time.sleep(0.3)
+            self.calls.append([problem.key(op) for op in batch])
+            self.started.release()
+            assert self.release.wait(60), "never released"
             return [CachedScore(len(problem.key(op)) / 100, 1, 1) for op in batch]
 
-    shared = SharedSimulations(Slow())
+    backend = Held()
+    shared = SharedSimulations(backend)
     out = {}
     threads = [threading.Thread(target=lambda n=n, part=part: out.__setitem__(
         n, shared.simulate_many(problem, part))) for n, part in enumerate((ops[:6], ops[3:]))]
+    threads[0].start()
+    assert backend.started.acquire(timeout=60)  # the first caller's six are in flight
+    threads[1].start()
+    assert backend.started.acquire(timeout=60)  # the second has taken ops[3:6] as theirs
+    backend.release.set()
     for t in threads:
-        t.start()
-        time.sleep(0.05)
-    for t in threads:
-        t.join()
-    simulated = [k for batch in calls for k in batch]
+        t.join(60)
+        assert not t.is_alive()
+    simulated = [k for batch in backend.calls for k in batch]
     assert len(simulated) == len(set(simulated)) == len({problem.key(op) for op in ops})
     assert shared.shared == 3
-    alone = Slow().simulate_many(problem, ops)
+    alone = Held(released=True).simulate_many(problem, ops)
     assert out[0] + out[1][3:] == alone
 
 

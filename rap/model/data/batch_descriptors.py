@@ -37,7 +37,7 @@ from typing import Sequence
 import numpy as np
 
 from rap.assembly import Assembly
-from rap.geometry.ndbg import NDBG, build_ndbg, cell_index
+from rap.geometry.ndbg import NDBG, cell_index, ndbg_of
 from rap.model.data.descriptors import DESCRIPTORS, PARALLEL_COS, VERTEX_RAD, segments
 from rap.operation import Operation
 
@@ -52,7 +52,7 @@ class BatchDescriptors:
 
     def __init__(self, assembly: Assembly, ndbg: NDBG | None = None):
         self.assembly = assembly
-        self.ndbg = ndbg if ndbg is not None else build_ndbg(assembly)
+        self.ndbg = ndbg if ndbg is not None else ndbg_of(assembly)
         g = self.ndbg
         self.ids = list(g.ids)
         self.index = {pid: i for i, pid in enumerate(self.ids)}

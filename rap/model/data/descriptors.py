@@ -49,7 +49,7 @@ import numpy as np
 
 from rap.assembly import Assembly
 from rap.geometry.exact import IVec
-from rap.geometry.ndbg import NDBG, build_ndbg, cell_index
+from rap.geometry.ndbg import NDBG, cell_index, ndbg_of
 from rap.operation import Operation
 
 __all__ = ["DESCRIPTORS", "VERSION", "DescriptorContext", "operation_descriptors",
@@ -84,7 +84,7 @@ class DescriptorContext:
 
     def __init__(self, assembly: Assembly, ndbg: NDBG | None = None):
         self.assembly = assembly
-        self.ndbg = ndbg if ndbg is not None else build_ndbg(assembly)
+        self.ndbg = ndbg if ndbg is not None else ndbg_of(assembly)
         self._polygons: dict[str, object] = {}
         self._unions: dict[frozenset, tuple] = {}
         self._shapes: dict[tuple[frozenset, frozenset], tuple] = {}

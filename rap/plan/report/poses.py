@@ -21,6 +21,9 @@ the assembly's units (``Assembly.units``; ``"unit"`` when the drawing named none
 ``annotate_plan(result, problem)`` fills a found ``PlanResult`` with what a controller and a user
 read: the units, the trials, each step's robot move, its score's confidence interval
 (``rap.plan.report.intervals``) and its reason (``rap.plan.report.reasons``), and R's interval.
+A free step (``PlanningProblem.is_free``: its moving parts touch nothing along the insertion or at
+the goal) is robust by geometry: source ``free``, score 1 with the interval [1, 1], reason "free:
+no contact", and it leaves R's interval alone (its factor is exactly 1).
 ``plan_rows(result)`` are the rows of ``rap-farm plan --csv`` (``CSV_COLUMNS``).
 
 Floats (motion, not predicates); the centroid is computed exactly and converted. The CSV's
@@ -86,20 +89,26 @@ def annotate_plan(result: PlanResult, problem, approach_distance: float | None =
     if result.status is not PlanStatus.FOUND:
         return out
     from rap.model.data.descriptors import DescriptorContext
-    from rap.plan.report.reasons import step_reason
+    from rap.plan.report.reasons import FREE_REASON, step_reason
 
     context = DescriptorContext(assembly) if result.steps else None
     start_gap = getattr(problem.params, "start_gap", 0.1)
-    steps = []
+    steps, drawn = [], []
     for s in result.steps:
         op = s.to_operation()
+        robot = robot_move(assembly, op, start_gap, approach_distance)
+        if problem.is_free(op):  # robust by geometry: 1 exactly, nothing sampled
+            steps.append(replace(s, source="free", confidence=None, score_interval=(1.0, 1.0),
+                                 reason=FREE_REASON, robot=robot))
+            continue
         try:
             reason = step_reason(context, op, assembly.units)
         except ValueError:
             reason = None
         steps.append(replace(s, score_interval=step_interval(s.score, trials), reason=reason,
-                             robot=robot_move(assembly, op, start_gap, approach_distance)))
-    interval = robustness_interval([s.score for s in steps], trials)
+                             robot=robot))
+        drawn.append(s.score)
+    interval = robustness_interval(drawn, trials)  # free steps' factors are exactly 1
     return replace(out, steps=tuple(steps), robustness_interval=interval,
                    confidence_level=None if interval is None else LEVEL)
 

@@ -22,9 +22,11 @@ medians over every operation of the six reference assemblies (``assemblies/*.jso
 space, ``python -m research.benchmarks.reason_typicals`` prints them): a tightness above 1 means
 "tighter than the usual operation". The step's reason names the two tightest quantities, the
 tightest first (ties: in the order above); a step whose range is the whole circle (nothing
-around it) is "free: nothing blocks any direction". Numbers are rounded to 2 significant digits;
-a depth or contact under 1e-6 of the moving extent or perimeter (the descriptors' float noise)
-counts as none.
+around it) is "free: nothing blocks any direction". A step whose moving parts touch nothing
+along the insertion and at the goal is "free: no contact" (``FREE_REASON``, given by
+``rap.plan.report.poses.annotate_plan`` without the descriptors). Numbers are rounded to 2
+significant digits; a depth or contact under 1e-6 of the moving extent or perimeter (the
+descriptors' float noise) counts as none.
 
 Floats only (descriptors are floats; the reasons are words). Cost: the descriptors of one
 operation (``DescriptorContext``: one NDBG per assembly, then about 0.3 ms an operation) and one
@@ -40,7 +42,8 @@ from rap.assembly import DEFAULT_UNITS
 from rap.model.data.descriptors import DESCRIPTORS, DescriptorContext
 from rap.operation import Operation
 
-__all__ = ["TYPICAL", "Quantity", "step_quantities", "step_reason", "format_length"]
+__all__ = ["TYPICAL", "Quantity", "step_quantities", "step_reason", "format_length",
+           "FREE_REASON"]
 
 #: typical values of the reference assemblies' operations (module doc): margin in degrees,
 #: clearance and depth as fractions of the moving subassembly's extent, sliding contact as a
@@ -50,6 +53,9 @@ TYPICAL = {"margin_deg": 45.0, "clearance": 0.39, "depth": 0.41, "sliding": 0.08
 # and 234 (sliding) operations where the quantity applies
 
 _FREE = "free: nothing blocks any direction"
+#: the reason of a free step: its moving parts touch nothing along the insertion or at the goal
+#: (``rap.plan.problem.PlanningProblem.is_free``), robust by geometry, scored 1 unsimulated
+FREE_REASON = "free: no contact"
 #: lengths below this fraction of the moving extent are shapely's float noise, taken as 0
 _NEGLIGIBLE = 1e-6
 

@@ -8,7 +8,8 @@ budget of simulations or seconds).
 unit vector along which ``moving`` travels to its place, the *insertion* direction (the NDBG's
 removal direction is its opposite); ``score`` the simulator's score of that operation (every
 returned sequence is evaluated by the simulator); ``source`` what chose it (``"cnn"``, ``"sim"`` or
-``"random"``); ``confidence`` the CNN's P(high) when the CNN chose it, else ``None``. Filled in by
+``"random"``; ``"free"``: an operation robust by geometry, scored 1 without the simulator or the
+model, ``PlanningProblem.is_free``); ``confidence`` the CNN's P(high) when the CNN chose it, else ``None``. Filled in by
 ``rap.plan.report.poses.annotate_plan``: ``score_interval`` (``rap.plan.report.intervals``),
 ``reason`` (``rap.plan.report.reasons``) and ``robot`` (a ``RobotMove``: start, approach and goal poses,
 travel, in the assembly's units; ``rap.plan.report.poses``).
@@ -35,7 +36,7 @@ from rap.stats import expected_attempts
 __all__ = ["PlanStatus", "PlanStep", "PlanResult", "RobotMove", "SOURCES", "FORMAT",
            "is_assembly_order"]
 
-SOURCES = ("cnn", "sim", "random")
+SOURCES = ("cnn", "sim", "random", "free")
 #: the plan document's format: 2 names a step's direction ``insertion`` (1: ``direction``) and
 #: carries ``format``; 1 is every document without it
 FORMAT = 2

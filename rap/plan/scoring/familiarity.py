@@ -1,7 +1,8 @@
 """Is an assembly far from what a CNN was trained on? The familiarity check of ``rap-farm plan``.
 
 * ``familiarity_operations(problem)``: up to ``FAMILIARITY_OPERATIONS`` operations of the assembly,
-  breadth first from the whole: what the statistic is computed on.
+  breadth first from the whole, free ones left out (the model never scores them:
+  ``rap.plan.scoring.scorer``): what the statistic is computed on.
 * ``model_familiarity(meta, geometry_hash, images)``: warnings (text) from the checkpoint's
   metadata (``OperationPredictor.meta``: its training assemblies and image statistics) and the rendered
   images of those operations (``OperationPredictor.images``): the assembly was in the training data, or
@@ -35,20 +36,24 @@ FAMILIARITY_OPERATIONS = 64  # operations whose images ``model_familiarity`` com
 
 def familiarity_operations(problem: PlanningProblem,
                            limit: int = FAMILIARITY_OPERATIONS) -> list[Operation]:
-    """Up to ``limit`` operations of the assembly, breadth first from the whole (its candidates,
-    then those of the subassemblies they leave, each subassembly once): what ``model_familiarity``
-    is calibrated on, and operations a planner looks at anyway (candidates are memoised by the
-    problem). Deterministic. Cost: the candidates of the subassemblies visited, typically a few."""
+    """Up to ``limit`` operations of the assembly that are not free, breadth first from the whole
+    (its candidates, then those of the subassemblies they leave, each subassembly once), looking
+    at no more than ``4 * limit`` candidates (an assembly of parts lying apart offers free ones
+    only): what ``model_familiarity`` is calibrated on, and operations a planner looks at anyway
+    (candidates are memoised by the problem). Deterministic. Cost: the candidates of the
+    subassemblies visited, typically a few."""
     out: list[Operation] = []
-    queue, seen, head = [problem.whole], set(), 0
-    while head < len(queue) and len(out) < limit:
+    queue, seen, head, looked = [problem.whole], set(), 0, 0
+    while head < len(queue) and len(out) < limit and looked < 4 * limit:
         s = queue[head]
         head += 1
         if len(s) < 2 or s in seen:
             continue
         seen.add(s)
         for op in problem.candidates(s):
-            out.append(op)
+            looked += 1
+            if not problem.is_free(op):  # free: 1 by geometry, never the model's (scorer)
+                out.append(op)
             queue += [op.moving, op.fixed]
     return out[:limit]
 

@@ -11,6 +11,13 @@ A planner sees one object, ``Scorer``, with two questions:
   score; what search multiplies); ``prob_high_and_expected``: both from one pass (what RAP ranks
   by).
 
+**Free operations.** An operation whose moving parts touch no fixed part along the insertion or at
+the goal (``PlanningProblem.is_free``, exact) is robust by geometry: both questions answer 1 for
+it (score 1, P(high) 1, expected score 1) without asking a backend, and it never enters the
+cache, the budget or the CNN's batches (``stats.free`` counts these answers). This is the one
+place every planner asks, so every planner (greedy, RAP, the optimum, random, the search) and
+every backend (the local simulator, the farm's pool, the CNN, the default cascade) gets it.
+
 Backends: a simulator (``SimBackend``: ``simulate_many(problem, ops) -> list[CachedScore]``), such as
 ``rap.plan.scoring.local_simulator.LocalSimulator`` (this machine, optionally over forked worker processes)
 or the farm's pool; a CNN (``CnnBackend``), such as ``rap.model.inference.operations.OperationPredictor`` (renders
@@ -45,6 +52,9 @@ from rap.plan.scoring.cache import CachedScore, ScoreCache
 from rap.plan.problem import PlanningProblem
 
 __all__ = ["SimBackend", "CnnBackend", "Scorer", "ScorerStats", "Budget", "BudgetSpent"]
+
+
+_FREE = CachedScore(1.0, 1, 1)  # a free operation's score: exact, by geometry
 
 
 class SimBackend(Protocol):
@@ -82,6 +92,7 @@ class ScorerStats:
     cnn_batches: int = 0
     cnn_ops: int = 0
     cnn_seconds: float = 0.0
+    free: int = 0  # answers given by geometry (free operations: 1, no backend asked)
 
     def to_dict(self) -> dict:
         return dict(self.__dict__)
@@ -118,17 +129,22 @@ class Scorer:
         return [c.score for c in self.results(problem, ops)]
 
     def results(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
+        """``scores`` with their successes and trials; a free operation's is exact, 1 of 1
+        (module doc)."""
         self._check_time()
         ops = list(ops)
-        keys = [problem.key(op) for op in ops]
-        found = self.cache.get_many(keys)
+        free = [problem.is_free(op) for op in ops]
+        keys = [None if f else problem.key(op) for op, f in zip(ops, free)]
+        cached = iter(self.cache.get_many(k for k in keys if k is not None))
+        found = [_FREE if f else next(cached) for f in free]
         missing: dict[str, Operation] = {}
         for k, op, c in zip(keys, ops, found):
             if c is None:
                 missing.setdefault(k, op)
         st = self.stats
-        st.sim_requested += len(ops)
-        st.cache_hits += len(ops) - sum(1 for c in found if c is None)
+        st.free += sum(free)
+        st.sim_requested += len(ops) - sum(free)
+        st.cache_hits += len(ops) - sum(free) - sum(1 for c in found if c is None)
         if missing:
             b = self.budget
             if (b.max_simulations is not None
@@ -187,15 +203,24 @@ class Scorer:
         if self.cnn is None:
             raise RuntimeError("this scorer has no CNN (load a model for methods rap and search)")
         self._check_time()
-        t = time.perf_counter()
-        got = getattr(self.cnn, what)(problem, list(ops))
-        self.stats.cnn_seconds += time.perf_counter() - t
-        self.stats.cnn_batches += 1
-        self.stats.cnn_ops += len(ops)
-        self._progress(0)
-        out = tuple(np.asarray(x, dtype=np.float64) for x in
-                    (got if isinstance(got, tuple) else (got,)))
-        if any(x.shape != (len(ops),) for x in out):
-            raise RuntimeError(f"CNN returned shape {[x.shape for x in out]} for {len(ops)} "
-                               f"operations")
-        return out if isinstance(got, tuple) else out[0]
+        ops = list(ops)
+        free = np.array([problem.is_free(op) for op in ops], dtype=bool)
+        asked = [op for op, f in zip(ops, free) if not f]
+        width = 2 if what == "prob_high_and_expected" else 1
+        out = tuple(np.ones(len(ops), dtype=np.float64) for _ in range(width))
+        self.stats.free += int(free.sum())
+        if asked:  # free operations: 1 by geometry, never shown to the model (module doc)
+            t = time.perf_counter()
+            got = getattr(self.cnn, what)(problem, asked)
+            self.stats.cnn_seconds += time.perf_counter() - t
+            self.stats.cnn_batches += 1
+            self.stats.cnn_ops += len(asked)
+            self._progress(0)
+            got = tuple(np.asarray(x, dtype=np.float64) for x in
+                        (got if isinstance(got, tuple) else (got,)))
+            if len(got) != width or any(x.shape != (len(asked),) for x in got):
+                raise RuntimeError(f"CNN returned shape {[x.shape for x in got]} for "
+                                   f"{len(asked)} operations")
+            for x, y in zip(out, got):
+                x[~free] = y
+        return out if width == 2 else out[0]

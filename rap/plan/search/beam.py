@@ -11,8 +11,16 @@ A state: ``(log product, tie-break counter, open subassemblies, ((subassembly, o
 Ties go to the state made first. An interlock that ends every state raises ``Interlocked`` naming
 the smallest dead end seen (a minimal one is named later by ``rap.plan.interlocked``).
 
+``BeamMode`` is the search's beam mode, a part of ``rap.plan.search.planner.SearchPlanner`` (a
+mixin, with ``rap.plan.search.refine.RefineLoop``): ``_beam`` takes the final beam, lets greedy's
+plan join it, and refines the choice among its sequences (re-ranked by mixed products) with
+simulations; then, with budget left, the plan's runs of one-part steps are re-ordered ``window``
+steps at a time (``rap.plan.search.windows.polish``). ``V`` and the incumbent range over the final
+beam's sequences only (``_beam_value``; the bound's scope ``beam``).
+
 Cost: one scorer batch per round (the candidates of the states' largest open subassemblies), at
-most ``n - 1`` rounds for ``n`` parts, ``width`` x candidates states a round. No ray, no torch.
+most ``n - 1`` rounds for ``n`` parts, ``width`` x candidates states a round; then the refine
+loop's and the windows' simulations. No ray, no torch.
 """
 
 from __future__ import annotations
@@ -22,8 +30,10 @@ import math
 
 from rap.plan.graph import Interlocked
 from rap.plan.problem import PlanningProblem
+from rap.plan.search.scores import SearchScores
+from rap.plan.search.windows import polish
 
-__all__ = ["beam_states", "log_product"]
+__all__ = ["BeamMode", "beam_states", "log_product"]
 
 
 def log_product(scores, choices) -> float:
@@ -63,3 +73,46 @@ def beam_states(problem: PlanningProblem, scores, width: int) -> tuple[list, int
                               else whole)
         beam = heapq.nlargest(width, nxt, key=lambda st: (st[0], -st[1]))
     return beam, rounds
+
+
+class BeamMode:
+    """The beam mode (module doc); mixed into ``SearchPlanner``. ``run``: the search's run state
+    (``rap.plan.search.planner``), whose ``beam`` (the final sequences) is set here for the
+    bound."""
+
+    def _beam(self, problem: PlanningProblem, scores: SearchScores, stats, run, budget: int,
+              first: tuple = ()) -> dict:
+        beam, rounds = beam_states(problem, scores, self.beam_width)
+        stats.update(beam_rounds=rounds, beam_width=self.beam_width)
+        if first and all(st[3] != first for st in beam):  # greedy's plan competes (planner doc, 2)
+            beam.append((log_product(scores, first), max(st[1] for st in beam) + 1, (), first))
+        run.beam = [[op for _, op in st[3]] for st in beam]
+        # simulations where they matter: re-rank the final sequences by mixed products
+        ranked: list = []
+
+        def choose():
+            ranked[:] = sorted(beam, key=lambda st: (-log_product(scores, st[3]), st[1]))
+            return dict(ranked[0][3]), None
+
+        def incumbent_of():
+            full = [st[3] for st in ranked if all(scores.is_simulated(op) for _, op in st[3])]
+            if not full:
+                return 0.0, None
+            got = max((math.prod(scores.known(op) for _, op in seq), -i)
+                      for i, seq in enumerate(full))
+            return got[0], dict(full[-got[1]])
+
+        plan = self._refine(scores, stats, budget, choose,
+                            lambda _: self._beam_value(run, scores),
+                            incumbent_of)
+        left = budget - stats["refine_simulations"]
+        if self.window and left > 0 and len(plan) == len(problem.whole) - 1:
+            deadline = (scores.scorer.started + self.time_limit) if self.time_limit else None
+            plan = polish(problem, scores, plan, self.window, left, stats, deadline)
+            run.beam.append(list(plan.values()))  # the bound's scope covers the polished plan
+        return plan
+
+    @staticmethod
+    def _beam_value(run, scores: SearchScores) -> float:
+        """``V`` over the final beam's sequences only (the bound's scope ``beam``)."""
+        return max(math.prod(scores.high(op) for op in seq) for seq in run.beam)

@@ -19,6 +19,11 @@ at a per-operation level (``rap.model.calibration``). Three views:
   optimism alone, as before; ``upper = 1, optimism = 0``: the bound itself). ``lower()`` (choose
   by ``known``) and ``by_bounds()`` (by ``high``) change it for the rest of a search.
 
+A free operation (``PlanningProblem.is_free``: robust by geometry, 1 exactly) is known, never
+predicted: ``predict`` and ``add_simulated`` enter it with its exact 1 (in ``simulated``, its key
+also in ``free``), so it carries no prediction, no conformal bound and no simulation, and counts
+in neither the model's numbers nor the budget (``simulations``: the real simulations known).
+
 ``incumbent(graph, scores, whole)``: the best
 sequence all of whose operations are simulated (its robustness and tree; 0 and None when there is
 none). ``report(...)``: the ``bound`` block of a plan (``rap.plan.report.result.PlanResult``).
@@ -55,7 +60,8 @@ class SearchScores:
     trust: float | None = None
     predicted: dict = field(default_factory=dict)
     bound: dict = field(default_factory=dict)  # key -> upper bound of an unsimulated operation
-    simulated: dict = field(default_factory=dict)
+    simulated: dict = field(default_factory=dict)  # key -> exact score (simulated, or free: 1)
+    free: set = field(default_factory=set)  # keys of the free operations in ``simulated``
     # id(op) -> (op, key): a key is a SHA-256 of the operation's content, the search's main
     # bookkeeping cost when recomputed; the op is held so that its id is never reused
     _keys: dict = field(default_factory=dict, repr=False)
@@ -135,12 +141,18 @@ class SearchScores:
 
     def predict(self, ops) -> None:
         """The model's expected score (and its upper bound) of each operation not predicted yet,
-        in one CNN batch."""
-        todo = {}
+        in one CNN batch; a free operation is entered as known, 1, instead (module doc)."""
+        todo, free = {}, []
         for op in ops:
             k = self.key(op)
-            if k not in self.predicted and k not in todo:
+            if k in self.predicted or k in todo or k in self.free:
+                continue
+            if self.problem.is_free(op):
+                free.append(op)
+            else:
                 todo[k] = op
+        if free:
+            self.add_simulated(free, [1.0] * len(free))
         if todo:
             p = np.asarray(self.scorer.expected_scores(self.problem, list(todo.values())),
                            dtype=np.float64)
@@ -187,8 +199,16 @@ class SearchScores:
         """Scores simulated elsewhere (a plan's evaluation)."""
         ops = list(ops)
         for op, sc in zip(ops, scores):
-            self.simulated[self.key(op)] = float(sc)
+            k = self.key(op)
+            self.simulated[k] = float(sc)
+            if self.problem.is_free(op):
+                self.free.add(k)
         self._changed(ops)
+
+    @property
+    def simulations(self) -> int:
+        """How many of the known scores were simulated (free operations are not)."""
+        return len(self.simulated) - len(self.free)
 
     def simulated_or_0(self, op) -> float:
         """Simulated, else 0 (what the incumbent is chosen by)."""

@@ -12,8 +12,8 @@ search goes on without one.
 
 Stats: ``greedy_simulations``, ``greedy_steps``, ``greedy_seconds``, ``greedy_robustness`` (None
 when a step was chosen by the model or there is no plan), ``greedy_by_model`` (the steps the model
-chose), ``greedy_known`` (scores known after it). Cost: greedy's simulations (its
-candidates' scores are read back from the score cache). No ray, no torch.
+chose), ``greedy_known`` (simulated scores known after it; free operations' are not). Cost:
+greedy's simulations (its candidates' scores are read back from the score cache). No ray, no torch.
 """
 
 from __future__ import annotations
@@ -89,6 +89,6 @@ def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
     scores.add_simulated(known, known_scores)
     # the model's steps are predicted for the search (one batch; simulated ones need none)
     scores.predict([op for op in ops if not scores.is_simulated(op)])
-    stats["greedy_known"] = len(scores.simulated)
+    stats["greedy_known"] = scores.simulations
     return Start(tuple((op.moving | op.fixed, op) for op in ops), stats["greedy_simulations"],
                  complete=not finished)

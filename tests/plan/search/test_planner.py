@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from rap.plan.scoring.cache import ScoreCache
+from rap.plan.graph import reachable
 from rap.plan.methods import make_planner
 from rap.plan.planners.optimal import OptimalPlanner
 from rap.plan.problem import PlanningProblem
@@ -43,10 +44,12 @@ def test_a_batch_first_scorer_gets_the_whole_graph_in_one_batch_and_the_same_pla
     for cls in (TableCnn, BatchFirstCnn):
         cnn = cls(lambda op: 0.5, score_fn=lambda op: 0.2 + 0.6 * hash_score(op))
         plans.append(SearchPlanner(simulations=40).solve(problem, scorer(cnn)))
-        if cls is BatchFirstCnn:
+        if cls is BatchFirstCnn:  # every operation but the free ones (1 by geometry)
             st = plans[-1].stats
-            assert st["search"] == "exact" and st["predicted_operations"] == st["operations"]
-            assert cnn.scored == st["operations"] and st["cnn_batches"] == 1
+            free = sum(problem.is_free(op) for ops in reachable(problem).values() for op in ops)
+            assert st["search"] == "exact"
+            assert st["predicted_operations"] == st["operations"] - free
+            assert cnn.scored == st["predicted_operations"] and st["cnn_batches"] == 1
     assert tree(plans[0]) == tree(plans[1])
     assert plans[0].robustness == plans[1].robustness
     assert plans[0].stats["sim_run"] == plans[1].stats["sim_run"]
@@ -63,7 +66,7 @@ def test_a_perfect_model_gives_exactly_the_optimum(name):
     assert found.robustness == pytest.approx(best.robustness)
     assert found.stats["predicted_robustness"] == pytest.approx(best.robustness)
     assert found.stats["search_simulations"] == 0  # no simulation while planning by default
-    assert all(s.source == "cnn" for s in found.steps)
+    assert all(s.source in ("cnn", "free") for s in found.steps)  # free: 1 by geometry
     assert check_plan(problem.assembly, found.steps) == []
 
 
@@ -161,7 +164,7 @@ def test_full_optimism_finds_the_optimum_whatever_the_model_says(name):
     for model in (_noisy_model(2, sd=0.3), TableCnn(lambda op: 0.5, lambda op: 0.0)):
         r = SearchPlanner(simulations=100_000, optimism=1.0, upper=0.0).solve(problem, scorer(model))
         assert r.robustness == pytest.approx(best.robustness)
-        assert all(s.source == "sim" for s in r.steps)
+        assert all(s.source in ("sim", "free") for s in r.steps)
         # a best-first search: it never needs every operation the optimum simulates
         assert r.stats["search_simulations"] < r.stats["operations"]
         assert check_plan(problem.assembly, r.steps) == []
