@@ -58,7 +58,7 @@ def search_counts(problem, truth: dict, pred: dict, r_opt: float,
 
     planner = (SearchPlanner(simulations=0, upper=0.0) if beam_width is None
                else SearchPlanner(beam_width=beam_width, max_operations=1, simulations=0, upper=0.0))
-    result = planner.solve(problem, Scorer(LookupSimulator(truth), LookupCnn(pred), ScoreCache()))
+    result = planner.solve(problem, Scorer(LookupSimulator(truth), LookupCnn(pred), ScoreCache(), free_by_geometry=False))
     r = math.prod(truth[problem.key(s.operation)] for s in result.steps)
     return r / r_opt, int(result.stats["predicted_operations"])
 

@@ -31,7 +31,7 @@ def replay(name: str, tab: dict, method: str) -> dict:
     from rap.plan.scoring.scorer import Scorer
 
     problem = problem_of(name)
-    scorer = Scorer(LookupSimulator(tab["truth"]), LookupCnn(tab["pred"], tab["phigh"]), ScoreCache())
+    scorer = Scorer(LookupSimulator(tab["truth"]), LookupCnn(tab["pred"], tab["phigh"]), ScoreCache(), free_by_geometry=False)
     result = method_planner(method).solve(problem, scorer)
     r = math.prod(tab["truth"][problem.key(s.operation)] for s in result.steps)
     st = result.stats

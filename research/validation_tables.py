@@ -227,7 +227,7 @@ def evaluate(name: str, tab: dict, trust: float | None, simulations: int,
     best, _ = dp_choice(graph, {s: [tab["truth"][problem.key(op)] for op in c]
                                 for s, c in graph.items()})
     result = SearchPlanner(simulations=simulations, trust=trust, optimism=optimism, upper=0.0).solve(
-        problem, Scorer(LookupSimulator(tab["truth"]), LookupCnn(tab["pred"]), ScoreCache()))
+        problem, Scorer(LookupSimulator(tab["truth"]), LookupCnn(tab["pred"]), ScoreCache(), free_by_geometry=False))
     r = math.prod(tab["truth"][problem.key(s.operation)] for s in result.steps)
     return r / best[problem.whole], int(result.stats["search_simulations"])
 

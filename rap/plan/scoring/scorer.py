@@ -109,6 +109,13 @@ class Scorer:
     stats: ScorerStats = field(default_factory=ScorerStats)
     started: float = field(default_factory=time.perf_counter)
     on_progress: Callable[[ScorerStats, int], None] | None = field(default=None, repr=False)
+    #: free operations answer 1 by geometry; False for a replay of recorded score tables, where
+    #: the table is the world (research/): every operation is asked of the backends
+    free_by_geometry: bool = True
+
+    def is_free(self, problem: PlanningProblem, op: Operation) -> bool:
+        """Does this scorer answer the operation by geometry (free, 1)?"""
+        return self.free_by_geometry and problem.is_free(op)
 
     def _progress(self, running: int) -> None:
         if self.on_progress is not None:
@@ -117,7 +124,8 @@ class Scorer:
     def fork(self, budget: Budget | None = None, cache: ScoreCache | None = None) -> "Scorer":
         """Same backends (and cache, unless given), fresh counters and clock."""
         return Scorer(self.simulator, self.cnn, self.cache if cache is None else cache,
-                      self.budget if budget is None else budget)
+                      self.budget if budget is None else budget,
+                      free_by_geometry=self.free_by_geometry)
 
     def _check_time(self) -> None:
         b = self.budget
@@ -133,7 +141,7 @@ class Scorer:
         (module doc)."""
         self._check_time()
         ops = list(ops)
-        free = [problem.is_free(op) for op in ops]
+        free = [self.is_free(problem, op) for op in ops]
         keys = [None if f else problem.key(op) for op, f in zip(ops, free)]
         cached = iter(self.cache.get_many(k for k in keys if k is not None))
         found = [_FREE if f else next(cached) for f in free]
@@ -204,7 +212,7 @@ class Scorer:
             raise RuntimeError("this scorer has no CNN (load a model for methods rap and search)")
         self._check_time()
         ops = list(ops)
-        free = np.array([problem.is_free(op) for op in ops], dtype=bool)
+        free = np.array([self.is_free(problem, op) for op in ops], dtype=bool)
         asked = [op for op, f in zip(ops, free) if not f]
         width = 2 if what == "prob_high_and_expected" else 1
         out = tuple(np.ones(len(ops), dtype=np.float64) for _ in range(width))

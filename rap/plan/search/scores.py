@@ -147,7 +147,7 @@ class SearchScores:
             k = self.key(op)
             if k in self.predicted or k in todo or k in self.free:
                 continue
-            if self.problem.is_free(op):
+            if self.scorer.is_free(self.problem, op):
                 free.append(op)
             else:
                 todo[k] = op
@@ -201,7 +201,7 @@ class SearchScores:
         for op, sc in zip(ops, scores):
             k = self.key(op)
             self.simulated[k] = float(sc)
-            if self.problem.is_free(op):
+            if self.scorer.is_free(self.problem, op):
                 self.free.add(k)
         self._changed(ops)
 

@@ -33,7 +33,7 @@
     "#c7c7c7", "#bcbd22", "#dbdb8d", "#17becf", "#9edae5"];
   const VIRIDIS = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
   const ROBUST = 0.95; // steps scored below it are marked, as in rap-farm's storyboard
-  const SOURCE_TEXT = { cnn: "model", sim: "simulator", random: "random" };
+  const SOURCE_TEXT = { cnn: "model", sim: "simulator", random: "random", free: "free: no contact" };
   const PLAY_MS = 1400;
 
   // gen: bumped by every file and plan asked for, so that a late answer to an older one is dropped
