@@ -4,7 +4,7 @@
 ``rap-farm generate tiling --parts N --seed S -o FILE`` (exact integer coordinates, validated);
 ``rap-farm generate FAMILY --seed S [--OPTION VALUE ...] -o FILE`` for every family of
 ``rap.geometry.families`` (one sub-command each, built from the registry: an option left out is
-drawn per seed), and ``rap-farm generate list`` to print the families with their options.
+drawn per seed; the held-out shape kinds of ``ALL_FAMILIES`` too, marked in the list), and ``rap-farm generate list`` to print the families with their options.
 
 Family option values are read by the registry (``Option.parse``): a bad value is one line on
 stderr naming the family and the flag (the registry names the option: ``rap.commands._flags``) and
@@ -86,15 +86,16 @@ def _list() -> None:
     from rich.table import Table
 
     from rap.commands._console import console
-    from rap.geometry.families import FAMILIES
+    from rap.geometry.families import ALL_FAMILIES
 
     table = Table(title="Assembly families: rap-farm generate FAMILY --seed S [--OPTION VALUE] -o FILE",
                   title_justify="left", show_lines=True)
     for col in ("family", "parts", "description", "options (allowed; default)"):
         table.add_column(col, overflow="fold")
-    for f in FAMILIES.values():
+    for f in ALL_FAMILIES.values():
         lo, hi = f.part_range()
-        table.add_row(f.name, f"{lo}-{hi}", f.description,
+        held = "" if f.training else " (held out: never used for training)"
+        table.add_row(f.name, f"{lo}-{hi}", f.description + held,
                       "\n".join(f"--{o.name.replace('_', '-')} {o.describe().split('=', 1)[1]}"
                                 for o in f.options))
     console().print(table)
@@ -130,9 +131,9 @@ def register(app: typer.Typer) -> None:
         """List the assembly families with their part counts and options."""
         _list()
 
-    from rap.geometry.families import FAMILIES
+    from rap.geometry.families import ALL_FAMILIES
 
-    for family in FAMILIES.values():
+    for family in ALL_FAMILIES.values():  # the held-out shape kinds too (never trained on)
         _family_command(gen, family)
 
     app.add_typer(gen, name="generate")

@@ -12,6 +12,8 @@
   builds the parts and verifies the result exactly (``verify``): ``validate_assembly`` and a full
   decomposition over online NDBG partitions (``rap.geometry.andor.decomposition``). A failed verification is a
   bug in the family and raises ``FamilyError``.
+  ``training`` False marks a held-out shape kind (``rap.geometry.families.unseen``): generated
+  like the others, never labelled into the corpus nor selected for training.
 * Exact rings: ``make_part(id, points)`` orients a ring counter-clockwise and drops repeated and
   collinear vertices; ``edge_points`` puts a knob (or its socket) on a straight edge between two
   integer points, in the edge's own integer frame (primitive direction and its left normal), so
@@ -127,6 +129,7 @@ class Family:
     count_options: tuple[str, ...] = ()  # the options ``count`` depends on
     problem: Callable[[dict], tuple[str, str] | None] = field(default=lambda o: None, repr=False)
     # ``problem(opts)``: (option, why) resolved options cannot be built together (None: they can)
+    training: bool = True  # False: a held-out shape kind, never in a corpus or a training set
 
     def option(self, name: str) -> Option:
         for o in self.options:

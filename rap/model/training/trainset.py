@@ -118,8 +118,11 @@ def training_selection(root: str, store: RowStore | None, holdout: str | None,
     """(the training rows' selection, the calibration assemblies taken out of it: ``[]`` unless
     ``calibrate``; ``split_validation`` of ``val_fraction`` of the assemblies or, ``val_by="rows"``,
     of the rows)."""
+    from rap.geometry.families import HELD_OUT
+
     exclude = (holdout,) if holdout else ()
-    exclude_families = (holdout_family,) if holdout_family else ()
+    # the held-out shape kinds (rap.geometry.families.unseen) never enter a training set
+    exclude_families = ((holdout_family,) if holdout_family else ()) + tuple(sorted(HELD_OUT))
     sel = select(root, exclude=exclude, exclude_families=exclude_families)
     val: list[str] = []
     if calibrate:
