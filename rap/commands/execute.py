@@ -3,7 +3,8 @@
 Runs a plan N times and reports what happened beside R (the plan's ``robustness`` and its
 ``robustness_interval``), the measured success with its 95% Clopper-Pearson interval:
 
-* by default, on the cell's arm in pybullet (``rap.robot.arm_sim``): the program of
+* by default, on the cell's arm (``--arm`` replaces it: the Panda, a UR5e or UR10e) in pybullet
+  (``rap.robot.arm_sim``): the program of
   ``rap-farm export`` (checked by the arm's kinematics first, exit 1 when unreachable), per step
   how often it was reached, inserted or jammed, and whether the arm touched a placed part;
   ``--gif FILE`` writes the first run as an animated GIF; ``--grasp-error-mm E`` puts each part
@@ -48,6 +49,8 @@ def execute_command(
                                          help="Arm: each part sits off the cup's place by up to "
                                               "this across the insertion (pick, calibration "
                                               "error) [default: 0]."),
+    arm: str = typer.Option(None, "--arm", help="Arm: panda | ur5e | ur10e [default: the "
+                                                "cell's [robot] arm]."),
     planar: bool = typer.Option(False, "--planar",
                                 help="Run in the planar simulator, noise carried from step to "
                                      "step, instead of on the arm."),
@@ -76,12 +79,16 @@ def execute_command(
     from dataclasses import replace
 
     from rap.robot.arm_sim import DEFAULT_ARM_SIM, run_arm
-    from rap.robot.cell import load_cell
-    from rap.robot.kinematics import check_program
+    from rap.robot.arms.export import check_arm
+    from rap.robot.arms.registry import arm_spec
+    from rap.robot.cell import load_cell, with_
     from rap.robot.program import build_program
 
-    program = build_program(plan_r, asm, load_cell(cell))
-    report = check_program(program)
+    the_cell = load_cell(cell)
+    if arm is not None:
+        the_cell = with_(the_cell, "robot", arm=arm_spec(arm, "--arm").name)
+    program = build_program(plan_r, asm, the_cell)
+    report = check_arm(program)
     frames, shoot = None, None
     if gif is not None:
         from rap.robot.gif import camera
@@ -91,7 +98,8 @@ def execute_command(
     out = run_arm(program, asm, trials=trials, seed=seed, params=params, frames=frames,
                   camera=shoot)
     typer.echo(f"kinematic check: {len(program.waypoints)} waypoints reached by the "
-               f"{program.cell.robot.arm} ({report.solves} IK solves)")
+               f"{program.cell.robot.arm} ({report.solves} points solved"
+               f"{', IK branch ' + report.branch if report.branch else ''})")
     typer.echo("step  part            reached  inserted  jammed  arm touched a placed part")
     for s, c in zip(program.steps, out.steps):
         typer.echo(f"{s.index:>4}  {s.part[:14]:<14}  {c.reached:>7}  {c.inserted:>8}  "

@@ -1,8 +1,8 @@
 """The arm models rap-farm knows, and a pybullet world that holds one.
 
 ``ARM_MODELS["panda"]``: the Franka Emika Panda of ``pybullet_data`` (``franka_panda/panda.urdf``,
-shipped in the pybullet wheel, Apache 2.0): 7 revolute joints with the URDF's limits, the fingers
-closed; the suction cup hangs ``gripper.tool_offset_m`` below the ``panda_grasptarget`` link
+shipped in the pybullet wheel, Apache 2.0): 7 revolute joints within the maker's limits (the
+registry's, ``rap.robot.arms.registry``, a little inside the URDF's), the fingers closed; the suction cup hangs ``gripper.tool_offset_m`` below the ``panda_grasptarget`` link
 (between the fingertips), so the TCP is that far below it along the tool axis. Its base is the
 cell's base frame (origin, x forward, z up).
 
@@ -22,6 +22,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
+
+from rap.robot.arms.registry import ARMS
 
 __all__ = ["ArmModel", "ARM_MODELS", "open_world", "load_arm", "set_joints", "tcp_pose",
            "data_path"]
@@ -43,14 +45,14 @@ class ArmModel:
     fixed_joints: tuple[tuple[int, float], ...] = ()  # other joints held (fingers closed)
 
 
+_PANDA = ARMS["panda"]
+#: the arms pybullet loads from pybullet_data (the UR arms are built from their DH rows:
+#: ``rap.robot.arms.ur_model``)
 ARM_MODELS = {
     "panda": ArmModel(
-        name="panda", urdf="franka_panda/panda.urdf", joints=tuple(range(7)),
-        joint_names=tuple(f"panda_joint{i}" for i in range(1, 8)),
-        lower=(-2.9671, -1.8326, -2.9671, -3.1416, -2.9671, -0.0873, -2.9671),
-        upper=(2.9671, 1.8326, 2.9671, 0.0, 2.9671, 3.8223, 2.9671),
-        tcp_link=11, home=(0.0, -0.4, 0.0, -2.2, 0.0, 1.8, 0.785), reach_m=0.855,
-        fixed_joints=((9, 0.0), (10, 0.0))),
+        name="panda", urdf=_PANDA.urdf, joints=tuple(range(7)), joint_names=_PANDA.joint_names,
+        lower=_PANDA.lower, upper=_PANDA.upper, tcp_link=11, home=_PANDA.home,
+        reach_m=_PANDA.reach_m, fixed_joints=((9, 0.0), (10, 0.0))),
 }
 
 

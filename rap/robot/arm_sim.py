@@ -13,8 +13,10 @@ Model.
   piece shrunk by ``inset_m`` so that parts that touch when assembled are not pressed together.
   The fixture is static; placed parts are dynamic and stay where the physics leaves them, so a
   later step meets the earlier ones as they actually are.
-* **Arm, kinematic**: the joints are set (``resetJointState``) along the IK path
-  (``rap.robot.kinematics.IkSolver``, warm-started) rather than torque-controlled: the arm goes
+* **Arm, kinematic**: the cell's arm (the Panda's URDF, or a UR built from its DH rows,
+  ``rap.robot.arms.ur_model``); the joints are set (``resetJointState``) along the IK path
+  (the Panda's ``rap.robot.kinematics.IkSolver``, warm-started; a UR's analytic solution on the
+  branch its check keeps) rather than torque-controlled: the arm goes
   where the program says, as a position-controlled industrial arm does, and what is measured is
   the part. Free-space moves (pick, lift, transit) take no physics time: the part is carried
   with the TCP; the arm is checked there for contact with the placed parts (``arm_contacts``).
@@ -49,7 +51,7 @@ import numpy as np
 
 from rap.assembly import Assembly
 from rap.robot.arm import set_joints
-from rap.robot.kinematics import IkSolver
+from rap.robot.arms.ur_model import solver_for
 from rap.robot.program import Program
 from rap.robot.trials import Rate, rate
 from rap.sim.params import DEFAULT_PARAMS
@@ -122,14 +124,13 @@ def _faces(n):
 class _Scene:
     """One trial's world: the arm, the table, every part at its assembled place."""
 
-    def __init__(self, program: Program, assembly: Assembly, p: ArmSimParams):
+    def __init__(self, program: Program, assembly: Assembly, p: ArmSimParams, make_solver):
         from rap.robot.arm import open_world
 
         self.p, self.program, fr = p, program, program.frame
         self.world = w = open_world()
         w.setPhysicsEngineParameter(fixedTimeStep=p.dt_s, numSolverIterations=p.solver_iterations)
-        self.ik = IkSolver(program.cell.robot.arm, world=w,
-                           tool_offset_m=program.cell.gripper.tool_offset_m)
+        self.ik = make_solver(w)
         plane = w.createCollisionShape(w.GEOM_PLANE)
         self.table = w.createMultiBody(0, plane, basePosition=[0, 0, fr.table_z])
         w.changeDynamics(self.table, -1, lateralFriction=p.friction)
@@ -204,8 +205,8 @@ def _carry(scene, pid, offset, target) -> bool:
     return reached
 
 
-def _run_trial(program, assembly, p, rng, counts, frames, camera):
-    scene = _Scene(program, assembly, p)
+def _run_trial(program, assembly, p, rng, counts, frames, camera, make_solver):
+    scene = _Scene(program, assembly, p, make_solver)
     w, dt, ok = scene.world, p.dt_s, True
     try:
         for j, pid in enumerate(assembly.ids):  # parts not yet placed wait far off the cell
@@ -297,9 +298,11 @@ def run_arm(program: Program, assembly: Assembly, trials: int = 10, seed: int = 
     of trial 0 (``camera(world)`` makes one; ``rap.robot.gif.camera``)."""
     t0 = time.perf_counter()
     counts = tuple(StepCounts() for _ in program.steps)
+    make_solver = solver_for(program)
     wins = 0
     for i, child in enumerate(np.random.SeedSequence(seed).spawn(trials)):
         rng = np.random.default_rng(child)
         wins += _run_trial(program, assembly, params, rng, counts,
-                           frames if (i == 0 and frames is not None and camera) else None, camera)
+                           frames if (i == 0 and frames is not None and camera) else None, camera,
+                           make_solver)
     return ArmOutcome(rate(wins, trials), counts, time.perf_counter() - t0, frames or [])

@@ -20,13 +20,14 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 from rap.errors import InputError
+from rap.robot.arms.registry import ARMS as ARM_REGISTRY
 
 __all__ = ["Cell", "CellError", "ArmSection", "AssemblySection", "TableSection",
            "GripperSection", "TraySection", "MotionSection", "load_cell", "cell_from_toml",
            "parse_cell", "DEFAULT_CELL_FILE", "ARMS", "PLANES", "UNIT_METRES", "with_"]
 
 DEFAULT_CELL_FILE = Path(__file__).with_name("default_cell.toml")
-ARMS = ("panda",)
+ARMS = tuple(ARM_REGISTRY)  # [robot] arm names one of rap.robot.arms.registry.ARMS
 PLANES = ("auto", "vertical", "horizontal")
 GRIPPERS = ("suction",)
 #: metres per unit of the assembly units that rap-farm knows (``Assembly.units``)
@@ -49,6 +50,7 @@ class AssemblySection:
     yaw_deg: float = 0.0
     unit_m: float = 0.002
     thickness_m: float = 0.02
+    density_kg_m3: float = 700.0  # the parts' material: their mass, the payload a program sets
 
 
 @dataclass(frozen=True)
@@ -62,6 +64,7 @@ class GripperSection:
     cup_diameter_m: float = 0.012
     tool_offset_m: float = 0.04
     output: int = 0
+    mass_kg: float = 0.1  # the cup and its mount: the payload without a part
 
 
 @dataclass(frozen=True)
@@ -152,7 +155,7 @@ def _slots(where, v):
     return tuple(sorted((str(k), _xy(f"{where}.{k}", xy)) for k, xy in v.items()))
 
 
-_POSITIVE = {"unit_m", "thickness_m", "cup_diameter_m", "tool_offset_m", "spacing_m",
+_POSITIVE = {"unit_m", "thickness_m", "density_kg_m3", "mass_kg", "cup_diameter_m", "tool_offset_m", "spacing_m",
              "approach_height_m",
              "joint_speed_rad_s", "joint_acceleration_rad_s2", "linear_speed_m_s",
              "insertion_speed_m_s", "linear_acceleration_m_s2"}

@@ -4,7 +4,7 @@
 solver, ``calculateInverseKinematics``, on the cell's arm model, ``rap.robot.arm``) for every
 waypoint in program order, the tool pointing down, each solve warm-started from the previous
 solution. A ``movel`` segment is checked at ``motion.samples_per_segment`` evenly spaced points
-(ends included), so an approach or an insertion that leaves the workspace half-way is caught,
+(ends included), and at most ``SAMPLE_STEP_M`` (5 mm) apart, so an approach or an insertion that leaves the workspace half-way is caught,
 and consecutive solutions along it may not turn a joint by more than ``MAX_JOINT_STEP_RAD`` (a
 flip of the arm's configuration is no straight line).
 
@@ -17,9 +17,12 @@ of 200 reached, 0.5 ms each; ``docs/ROBOT.md``).
 An unreachable point is an ``Unreachable`` (exit 1), one line naming the step, the part, the
 waypoint, the point (metres, base frame) and the limit: a joint held at one of its limits (named,
 with its range), the arm's reach, or a joint flip along a line. Returns a ``KinematicReport``
-(the joint solution of every waypoint, the worst errors, the solve count and the seconds).
+(the joint solution of every waypoint and of every sample on the way, ``paths``, from which
+``rap.robot.arms.trajectory`` times the Panda's trajectory; the worst errors, the solve count and
+the seconds). The UR arms have their own check (``rap.robot.arms.ur_check``); the front door
+for any arm is ``rap.robot.arms.export.check_arm``.
 
-Cost: about 0.1-0.5 ms a solve; a 22-step plan has about 22 x 50 solves (``benchmarks/
+Cost: about 0.1-0.5 ms a solve; a 22-step plan has about 22 x 90 solves (``benchmarks/
 robot_export.py``).
 """
 
@@ -36,12 +39,13 @@ from rap.robot.arm import ARM_MODELS, load_arm, open_world, set_joints, tcp_pose
 from rap.robot.program import Program
 
 __all__ = ["Unreachable", "KinematicReport", "check_program", "IkSolver", "POS_TOL_M",
-           "ANGLE_TOL_RAD", "MAX_JOINT_STEP_RAD", "ITERATIONS"]
+           "ANGLE_TOL_RAD", "MAX_JOINT_STEP_RAD", "ITERATIONS", "SAMPLE_STEP_M", "line_samples"]
 
 POS_TOL_M = 1e-4
 ANGLE_TOL_RAD = 2e-3
 MAX_JOINT_STEP_RAD = 0.5
 ITERATIONS = 30
+SAMPLE_STEP_M = 0.005  # the Panda's line samples at most this far apart (its trajectory's knots)
 _DOWN = (1.0, 0.0, 0.0, 0.0)  # quaternion xyzw: a half turn about x (URScript rotvec (pi, 0, 0))
 
 
@@ -61,6 +65,10 @@ class KinematicReport:
     worst_position_m: float
     worst_angle_rad: float
     seconds: float
+    arm: str = "panda"
+    branch: str = ""  # the IK branch kept along the program (UR arms)
+    #: per waypoint, the joint vectors of the samples of the move into it (its end last)
+    paths: tuple[np.ndarray, ...] = ()
 
 
 def _angle(q1, q2) -> float:
@@ -120,8 +128,16 @@ def _fail(solver, step, wp, point, err, ang, clipped) -> Unreachable:
                        f"pose misses it by {err * 1000:.1f} mm and {math.degrees(ang):.1f} deg")
 
 
+def line_samples(a, b, n_min: int, max_step_m: float) -> list[np.ndarray]:
+    """Points of the segment from ``a`` to ``b`` (``a`` left out, ``b`` last): at least
+    ``n_min - 1`` of them, at most ``max_step_m`` apart."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    n = max(int(n_min), int(math.ceil(float(np.linalg.norm(b - a)) / max_step_m)) + 1)
+    return [a + (b - a) * t for t in np.linspace(0, 1, n)[1:]]
+
+
 def check_program(program: Program, solver: IkSolver | None = None) -> KinematicReport:
-    """Check every waypoint and linear segment of ``program`` (module doc). Raises
+    """Check every waypoint and linear segment of ``program`` on the Panda (module doc). Raises
     ``Unreachable`` (exit 1) at the first point the arm cannot reach."""
     t0 = time.perf_counter()
     own = solver is None
@@ -131,20 +147,19 @@ def check_program(program: Program, solver: IkSolver | None = None) -> Kinematic
         n = program.cell.motion.samples_per_segment
         q = np.array(solver.model.home)
         prev = None
-        joints, solves, worst_p, worst_a = [], 0, 0.0, 0.0
+        joints, paths, solves, worst_p, worst_a = [], [], 0, 0.0, 0.0
         for step in program.steps:
             for wp in step.waypoints:
                 end = np.array(wp.position)
-                if wp.motion == "movel" and prev is not None:
-                    points = [prev + (end - prev) * t for t in np.linspace(0, 1, n)[1:]]
-                else:
-                    points = [end]
+                line = wp.motion == "movel" and prev is not None
+                points = line_samples(prev, end, n, SAMPLE_STEP_M) if line else [end]
+                path = []
                 for pt in points:
                     q_new, err, ang, clipped = solver.solve(pt, q)
                     solves += 1
                     if err >= POS_TOL_M or ang >= ANGLE_TOL_RAD:
                         raise _fail(solver, step, wp, pt, err, ang, clipped)
-                    if wp.motion == "movel" and prev is not None:
+                    if line:
                         jump = np.abs(q_new - q)
                         if jump.max() > MAX_JOINT_STEP_RAD:
                             i = int(jump.argmax())
@@ -154,10 +169,13 @@ def check_program(program: Program, solver: IkSolver | None = None) -> Kinematic
                                 f"samples (limit {MAX_JOINT_STEP_RAD} rad)")
                     worst_p, worst_a = max(worst_p, err), max(worst_a, ang)
                     q = q_new
+                    path.append(q)
                 joints.append(tuple(float(v) for v in q))
+                paths.append(np.array(path))
                 prev = end
         return KinematicReport(tuple(joints), solves, worst_p, worst_a,
-                               time.perf_counter() - t0)
+                               time.perf_counter() - t0, arm=solver.model.name,
+                               paths=tuple(paths))
     finally:
         if own:
             solver.close()

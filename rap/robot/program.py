@@ -30,6 +30,9 @@ and every step must move one part into a subassembly that holds the fixture (``p
 Otherwise ``TwoHandedPlan`` (exit 1), one line naming the step: a step that moves a subassembly,
 or builds one away from the fixture, needs a second hand and a second fixture.
 
+Each step carries its part's mass (area x ``thickness_m`` x ``density_kg_m3``) and centroid
+from the TCP, for the payload a program sets (``rap.robot.arms.urscript``).
+
 Cost: O(parts x vertices) (grasps) plus O(1) a waypoint; no kinematics (``rap.robot.kinematics``).
 """
 
@@ -41,6 +44,7 @@ import numpy as np
 
 from rap.assembly import Assembly
 from rap.errors import EXIT_INFEASIBLE, InputError, RapError
+from rap.plan.report.poses import centroid
 from rap.plan.report.result import PlanResult
 from rap.robot.cell import Cell
 from rap.robot.frames import TOOL_DOWN_ROTVEC, CellFrame, cell_frame, plan_gravity
@@ -88,6 +92,8 @@ class ProgramStep:
     slot: tuple[float, float]
     score: float | None
     waypoints: tuple[Waypoint, ...]
+    mass_kg: float = 0.0  # the part's: area x thickness_m x density_kg_m3
+    cog_m: tuple[float, float, float] = (0.0, 0.0, 0.0)  # its centroid from the TCP, base frame
 
     def waypoint(self, name: str) -> Waypoint:
         return next(w for w in self.waypoints if w.name == name)
@@ -187,5 +193,10 @@ def build_program(plan: PlanResult, assembly: Assembly, cell: Cell) -> Program:
                wp("start", "movel", tcp(r.start), insertion=True),
                wp("goal", "movel", tcp(r.goal), "grip_off", insertion=True),
                wp("retreat", "movel", tcp(r.goal) + h * up))
-        steps.append(ProgramStep(k, part, s.fixed, ins, g, slot, s.score, wps))
+        mass = (float(assembly.part(part).area()) * frame.scale_m ** 2 * frame.thickness_m
+                * cell.assembly.density_kg_m3)
+        mid = frame.thickness_m / 2 if frame.plane == "horizontal" else 0.0
+        cog = frame.point(centroid(assembly, [part]), mid) - tcp((0.0, 0.0))
+        steps.append(ProgramStep(k, part, s.fixed, ins, g, slot, s.score, wps, mass,
+                                 tuple(float(v) for v in cog)))
     return Program(plan.assembly, fixture, frame, cell, tuple(steps))

@@ -1,20 +1,23 @@
 """The service's robot program (``POST /export``): a plan and its assembly in, an arm's program out.
 
 ``parse_export_request(body)`` reads a ``POST /export`` body, ``{"assembly": <assembly JSON, as
-POST /plan takes it>, "plan": <the plan document POST /plan answered>, "format": "urscript" |
-"waypoints-csv" | "waypoints-json" (default "urscript"), "cell": <a cell file's TOML text>
-(optional; default the shipped cell, rap/robot/default_cell.toml)}``, into an ``ExportRequest``, or
+POST /plan takes it>, "plan": <the plan document POST /plan answered>, "arm": "panda" | "ur5e" |
+"ur10e" (optional; default the cell's ``[robot] arm``), "format": one of
+``rap.robot.arms.registry.FORMATS`` that the arm takes (default the arm's first: URScript for a
+UR, the YAML joint trajectory for the Panda), "cell": <a cell file's TOML text> (optional;
+default the shipped cell, rap/robot/default_cell.toml)}``, into an ``ExportRequest``, or
 raises ``BadRequest`` (400, one line): a body that is not JSON or not an object of those keys, an
 invalid assembly (the CLI's ``AssemblyError`` line; 413 past ``max_parts`` parts), a plan document
 that is not a found plan, or not a plan of that assembly (a part it lacks; steps that do not build
-it, ``is_assembly_order``), a number in the plan that is not a finite float, an unknown format, a
-cell that is not TOML or has a bad key (``rap.robot.cell``'s line naming the key).
+it, ``is_assembly_order``), a number in the plan that is not a finite float, an unknown arm, an
+unknown format or one the arm does not take (the CLI's line), a cell that is not TOML or has a
+bad key (``rap.robot.cell``'s line naming the key).
 
 ``program_file(request)`` builds the program as ``rap-farm export`` does (``rap.robot.program.
-build_program``, then the arm's kinematic check ``rap.robot.kinematics.check_program``, then
-``rap.robot.writers.render``) and returns a ``ProgramFile``: the text, its attachment file name
-(``ASSEMBLY.script``, ``ASSEMBLY-waypoints.csv``, ``ASSEMBLY-waypoints.json``), its media type,
-and the check's figures. Refusals are ``BadRequest`` with the CLI's one line: 422 for a plan one
+build_program``, then ``rap.robot.arms.export.export_text``: the arm's kinematic check and the
+format's writer) and returns a ``ProgramFile``: the text, its attachment file name (the assembly's
+name and the format's ending: ``ASSEMBLY.script``, ``ASSEMBLY-trajectory.yaml``,
+``ASSEMBLY-waypoints.csv``, ...), its media type, and the check's figures. Refusals are ``BadRequest`` with the CLI's one line: 422 for a plan one
 arm cannot build (``TwoHandedPlan``: made without a fixture, ``plan --base``, or with a step that
 needs a second hand) and for a step out of the arm's reach (``Unreachable``: the step, the
 waypoint, the point and the limit); 400 for a part the suction cup finds no place on.
@@ -32,12 +35,12 @@ import math
 import re
 from dataclasses import dataclass
 from decimal import Decimal
-from pathlib import Path
 
 from rap.assembly import LIMITS, Assembly
 from rap.errors import InputError
 from rap.plan.report.result import PlanResult, is_assembly_order
-from rap.robot.cell import Cell, cell_from_toml
+from rap.robot.arms.registry import ARMS, FORMATS, arm_spec, check_format
+from rap.robot.cell import Cell, cell_from_toml, with_
 from rap.robot.inputs import check_assembly, plan_of
 from rap.serve.api import BadRequest, ServeConfig, request_assembly, request_object
 
@@ -45,12 +48,10 @@ __all__ = ["EXPORT_KEYS", "EXPORT_FORMATS", "DEFAULT_FORMAT", "PROGRAM_DETAILS_H
            "ExportRequest", "ProgramFile", "parse_export_request", "program_file",
            "EXPORT_OPENAPI"]
 
-EXPORT_KEYS = ("assembly", "plan", "format", "cell")
-#: format -> (the file name's ending after the assembly's name, media type)
-EXPORT_FORMATS = {"urscript": (".script", "text/plain"),
-                  "waypoints-csv": ("-waypoints.csv", "text/csv"),
-                  "waypoints-json": ("-waypoints.json", "application/json")}
-DEFAULT_FORMAT = "urscript"
+EXPORT_KEYS = ("assembly", "plan", "arm", "format", "cell")
+#: format -> (the file name's ending after the assembly's name, media type): the registry's
+EXPORT_FORMATS = {f.name: (f.ending, f.media_type) for f in FORMATS.values()}
+DEFAULT_FORMAT = None  # the arm's first format
 PROGRAM_DETAILS_HEADER = "X-Program-Details"  # {"steps", "waypoints", "solves", ...} of the check
 
 
@@ -117,10 +118,20 @@ def parse_export_request(body: bytes, *, max_parts: int = LIMITS.max_parts,
                       ("plan", "the plan document POST /plan answered")):
         if key not in doc:
             raise BadRequest(400, f"missing key {key!r} ({what})")
-    fmt = doc.get("format", DEFAULT_FORMAT)
-    if not isinstance(fmt, str) or fmt not in EXPORT_FORMATS:
-        raise BadRequest(400, f"format {fmt!r}: choose one of {', '.join(EXPORT_FORMATS)}")
     cell = _cell(doc.get("cell"))
+    arm = doc.get("arm", cell.robot.arm)
+    fmt = doc.get("format")
+    try:
+        if not isinstance(arm, str):
+            raise InputError(f"arm {arm!r}: choose one of {', '.join(ARMS)}")
+        cell = with_(cell, "robot", arm=arm_spec(arm).name)
+        if fmt is None:
+            fmt = arm_spec(arm).formats[0]
+        if not isinstance(fmt, str):
+            raise InputError(f"format {fmt!r}: choose one of {', '.join(EXPORT_FORMATS)}")
+        check_format(arm, fmt)
+    except InputError as exc:
+        raise BadRequest(400, str(exc)) from None
     assembly = request_assembly(doc["assembly"], max_parts, max_vertices)
     try:
         plan = plan_of(_floats(doc["plan"]), "plan")
@@ -141,23 +152,23 @@ def program_file(req: ExportRequest) -> ProgramFile:
     """The program of ``req``, checked by the arm's kinematics (module doc). Raises
     ``BadRequest``: 422 for a plan one arm cannot build or a step out of reach, 400 for no
     place for the cup."""
-    from rap.robot.kinematics import Unreachable, check_program
+    from rap.robot.arms.export import export_text
+    from rap.robot.kinematics import Unreachable
     from rap.robot.program import TwoHandedPlan, build_program
-    from rap.robot.writers import render
 
     try:
         program = build_program(req.plan, req.assembly, req.cell)
-        report = check_program(program)
+        text, report = export_text(program, req.format)
     except (TwoHandedPlan, Unreachable) as exc:
         raise BadRequest(422, str(exc)) from None
     except InputError as exc:
         raise BadRequest(400, str(exc)) from None
     ending, media = EXPORT_FORMATS[req.format]
-    text = render(program, req.format.split("-")[0], Path(ending).suffix)  # waypoints-csv: .csv
     details = {"format": req.format, "steps": len(program.steps),
                "waypoints": len(program.waypoints), "fixture": program.fixture,
                "plane": program.frame.plane, "arm": program.cell.robot.arm,
-               "solves": report.solves, "worst_position_m": report.worst_position_m,
+               "branch": report.branch, "solves": report.solves,
+               "worst_position_m": report.worst_position_m,
                "worst_angle_rad": report.worst_angle_rad, "check_seconds": report.seconds}
     return ProgramFile(text, _stem(req.plan.assembly) + ending, media, details)
 
@@ -174,16 +185,21 @@ EXPORT_OPENAPI = {
                 "plan": {"type": "object", "description": "The plan document POST /plan "
                          "answered (`rap-farm plan --out`), made with a fixture (constraints."
                          "base) and one part per step (constraints.linear)"},
-                "format": {"type": "string", "enum": list(EXPORT_FORMATS),
-                           "default": DEFAULT_FORMAT},
+                "arm": {"type": "string", "enum": list(ARMS), "description": "The arm "
+                        "(default: the cell's [robot] arm, panda in the shipped cell)"},
+                "format": {"type": "string", "enum": list(EXPORT_FORMATS), "description":
+                           "One the arm takes (urscript: UR arms; joint-trajectory-yaml|json: "
+                           "the Panda; waypoints-csv|json: any); default the arm's first"},
                 "cell": {"type": "string", "description": "A cell file's TOML text (docs/ROBOT.md"
                          "); default: the shipped cell, rap/robot/default_cell.toml"}}}}},
     },
     "responses": {"200": {"description": "The program as an attachment: URScript "
-                                         "(ASSEMBLY.script) or waypoints (ASSEMBLY-waypoints.csv, "
-                                         "-waypoints.json); the header X-Program-Details carries "
-                                         "the kinematic check's figures"},
-                  "400": {"description": "Malformed request, invalid assembly, plan or cell"},
+                                         "(ASSEMBLY.script), a joint trajectory (ASSEMBLY-"
+                                         "trajectory.yaml, .json) or waypoints (ASSEMBLY-"
+                                         "waypoints.csv, .json); the header X-Program-Details "
+                                         "carries the kinematic check's figures"},
+                  "400": {"description": "Malformed request, invalid assembly, plan or cell, an "
+                                         "unknown arm, a format unknown or not the arm's"},
                   "401": {"description": "Missing or wrong bearer token"},
                   "413": {"description": "Body or assembly too large"},
                   "422": {"description": "A plan one arm cannot build (a two-handed step needs a "

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
+
+from rap.robot.arms.registry import ARMS
 from rap.robot.cell import Cell
-from rap.robot.kinematics import check_program
+from rap.robot.kinematics import SAMPLE_STEP_M, check_program, line_samples
 from rap.robot.program import build_program
 
 from tests.robot.cases import STACK, STACK_PLAN
@@ -14,9 +17,16 @@ def test_every_waypoint_and_line_of_the_stack_is_reached(stack):
     prog = build_program(plan, asm, Cell())
     report = check_program(prog)
     assert len(report.joints) == len(prog.waypoints) == 24
-    # every movel segment sampled: 6 movel segments x 7 new points + 2 movej per step
-    assert report.solves == 3 * (6 * (Cell().motion.samples_per_segment - 1) + 2)
+    # every movel segment sampled at least 8 points and at most 5 mm apart, + the 2 movej a step
+    n, prev, expect = Cell().motion.samples_per_segment, None, 0
+    for w in prog.waypoints:
+        line = w.motion == "movel" and prev is not None
+        expect += len(line_samples(prev, w.position, n, SAMPLE_STEP_M)) if line else 1
+        prev = w.position
+    assert report.solves == expect == sum(len(p) for p in report.paths)
     assert report.worst_position_m < 1e-4
+    lo, hi = np.array(ARMS["panda"].lower), np.array(ARMS["panda"].upper)
+    assert all(((p >= lo) & (p <= hi)).all() for p in report.paths)  # the maker's limits
 
 
 def test_an_assembly_3_m_away_exits_1_naming_the_step(tmp_path, run_cli):

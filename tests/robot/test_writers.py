@@ -1,4 +1,5 @@
-"""The written program: URScript that a small grammar accepts; CSV and JSON waypoints."""
+"""The written waypoints (CSV, JSON), and the URScript grammar the UR programs are held to
+(tests/robot/arms/test_urscript.py, tests/serve/test_page.py)."""
 
 from __future__ import annotations
 
@@ -6,18 +7,20 @@ import csv
 import json
 import re
 
-from rap.robot.cell import Cell
-from rap.robot.program import build_program
-from rap.robot.writers import WAYPOINT_COLUMNS, urscript
+from rap.robot.writers import WAYPOINT_COLUMNS
 
 from tests.robot.cases import STACK, STACK_PLAN
 
 NUM = r"-?\d+(?:\.\d+)?(?:e-?\d+)?"
 POSE = rf"p\[{NUM}(?:, {NUM}){{5}}\]"
+JOINTS = rf"\[{NUM}(?:, {NUM}){{5}}\]"
 GRAMMAR = [
     re.compile(r"#.*"),
     re.compile(r"def [a-z_]+\(\):"),
-    re.compile(rf"  (movej|movel)\({POSE}, a={NUM}, v={NUM}\)  # [a-z_]+"),
+    re.compile(rf"  set_tcp\({POSE}\)"),
+    re.compile(rf"  set_target_payload\({NUM}, \[{NUM}, {NUM}, {NUM}\]\)"),
+    re.compile(rf"  movej\({JOINTS}, a={NUM}, v={NUM}\)  # [a-z_]+"),
+    re.compile(rf"  movel\({POSE}, a={NUM}, v={NUM}, r=0\)  # [a-z_]+"),
     re.compile(r"  set_digital_out\([0-7], (True|False)\)"),
     re.compile(rf"  sleep\({NUM}\)"),
     re.compile(r"  # .*"),
@@ -35,17 +38,10 @@ def parse_urscript(text: str) -> list[str]:
     return bad
 
 
-def test_urscript_parses(stack):
-    plan, _, asm = stack
-    text = urscript(build_program(plan, asm, Cell()))
-    assert parse_urscript(text) == []
-    assert text.count("movel(") == 3 * 6 and text.count("movej(") == 3 * 2
-    assert text.count("set_digital_out(0, True)") == 3
-    assert "# step 2: block2 into {block1,plate}" in text
-
-
 def test_the_grammar_rejects_a_broken_line():
     assert parse_urscript("def f():\n  movel(p[1, 2], a=1, v=1)  # x\nend\n")
+    assert parse_urscript("def f():\n  movej(p[1, 2, 3, 4, 5, 6], a=1, v=1)  # x\nend\n")
+    assert parse_urscript("def f():\n  movel(p[1, 2, 3, 4, 5, 6], a=1, v=1, r=0.01)  # x\nend\n")
 
 
 def test_export_writes_csv_and_json_waypoints(tmp_path, run_cli):
@@ -61,5 +57,5 @@ def test_export_writes_csv_and_json_waypoints(tmp_path, run_cli):
     assert code == 0 and doc["units"] == "m" and doc["plane"] == "vertical"
     assert len(doc["waypoints"]) == 24
     out = tmp_path / "p.script"
-    code, _, _ = run_cli("export", STACK_PLAN, "--assembly", STACK, "-o", out)
+    code, _, _ = run_cli("export", STACK_PLAN, "--assembly", STACK, "--arm", "ur5e", "-o", out)
     assert code == 0 and parse_urscript(out.read_text()) == []
