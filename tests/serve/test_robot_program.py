@@ -10,9 +10,9 @@ import json
 
 import pytest
 
-from rap.robot.cell import Cell
+from rap.robot.arms.export import export_text
+from rap.robot.cell import Cell, with_
 from rap.robot.program import build_program
-from rap.robot.writers import urscript, waypoints_csv, waypoints_json
 from rap.serve.api import BadRequest
 from rap.serve.robot_program import (PROGRAM_DETAILS_HEADER, parse_export_request,
                                        program_file)
@@ -42,27 +42,32 @@ def refusal(data: bytes) -> BadRequest:
     return err.value
 
 
-@pytest.mark.parametrize("fmt, writer, name, media", [
-    (None, urscript, "stack.script", "text/plain"),  # the default format
-    ("urscript", urscript, "stack.script", "text/plain"),
-    ("waypoints-csv", waypoints_csv, "stack-waypoints.csv", "text/csv"),
-    ("waypoints-json", waypoints_json, "stack-waypoints.json", "application/json"),
+@pytest.mark.parametrize("arm, fmt, name, media", [
+    ("ur5e", None, "stack.script", "text/plain"),  # a UR's default format
+    ("ur10e", "urscript", "stack.script", "text/plain"),
+    (None, "waypoints-csv", "stack-waypoints.csv", "text/csv"),  # the cell's arm, the Panda
+    ("ur5e", "waypoints-json", "stack-waypoints.json", "application/json"),
+    (None, None, "stack-trajectory.yaml", "application/yaml"),  # the Panda's default format
 ])
-def test_the_program_is_what_rap_farm_export_writes(fmt, writer, name, media):
+def test_the_program_is_what_rap_farm_export_writes(arm, fmt, name, media):
     from rap.robot.inputs import load_plan_and_assembly
 
     plan, _, asm = load_plan_and_assembly(STACK_PLAN, STACK)
-    got = export(body(format=fmt))
-    assert got.text == writer(build_program(plan, asm, Cell()))
+    got = export(body(arm=arm, format=fmt))
+    cell = with_(Cell(), "robot", arm=arm or "panda")
+    program = build_program(plan, asm, cell)
+    assert got.text == export_text(program, fmt or {"panda": "joint-trajectory-yaml"}.get(
+        cell.robot.arm, "urscript"))[0]
     assert (got.filename, got.media_type) == (name, media)
     assert got.headers["Content-Disposition"] == f'attachment; filename="{name}"'
     details = json.loads(got.headers[PROGRAM_DETAILS_HEADER])
     assert details["steps"] == 3 and details["waypoints"] == 24 and details["fixture"] == "plate"
     assert details["solves"] > 24 and details["worst_position_m"] < 1e-4
+    assert details["arm"] == (arm or "panda")
 
 
 def test_the_3_part_stack_is_a_urscript_program_and_waypoints():
-    text = export(body()).text
+    text = export(body(arm="ur5e")).text
     assert parse_urscript(text) == []
     assert [ln for ln in text.splitlines() if not ln.startswith("#")][0] == "def rap_farm_program():"
     assert text.count("set_digital_out(0, True)") == 3
@@ -116,11 +121,15 @@ BAD = [  # (name, body, status, the line's start)
     ("not-json", b"{\"assembly\": ", 400, "request body is not valid JSON"),
     ("not-an-object", b"[1]", 400, "request body must be a JSON object"),
     ("unknown-key", body(method="sim"), 400, "unknown key 'method' (expected assembly, plan, "
-                                             "format, cell)"),
+                                             "arm, format, cell)"),
     ("no-plan", json.dumps({"assembly": ASSEMBLY}).encode(), 400, "missing key 'plan'"),
     ("no-assembly", json.dumps({"plan": PLAN}).encode(), 400, "missing key 'assembly'"),
-    ("format", body(format="pdf"), 400, "format 'pdf': choose one of urscript, waypoints-csv, "
-                                        "waypoints-json"),
+    ("format", body(format="pdf"), 400, "format 'pdf': unknown (choose one of urscript, "
+                                        "joint-trajectory-yaml,"),
+    ("format-not-the-arms", body(format="urscript"), 400, "format 'urscript': the panda (Franka "
+                                                          "Emika Panda) does not take it"),
+    ("arm", body(arm="ur3"), 400, "arm 'ur3': unknown (known: panda, ur5e, ur10e)"),
+    ("arm-not-text", body(arm=5), 400, "arm 5: choose one of panda, ur5e, ur10e"),
     ("cell-not-text", body(cell={"assembly": {}}), 400, "cell: must be a cell file's TOML text"),
     ("cell-not-toml", body(cell="[assembly"), 400, "cell: not a TOML file"),
     ("cell-key", body(cell="[motion]\ninsertion_speed_m_s = -1\n"), 400,
