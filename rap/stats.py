@@ -11,6 +11,8 @@ so every confidence statement about scores is about a binomial rate:
   two-sided interval of one rate (coverage at least the level for every true rate).
 * ``bonferroni(confidence, steps)``: the per-item level at which ``steps`` statements hold together
   with probability at least ``confidence`` (the union bound; no independence needed).
+* ``Rate``, ``rate(successes, trials)``: a measured success count (executed plans, rollouts) with
+  its 95% Clopper-Pearson interval, the same construction as a step's score interval.
 * ``expected_attempts(score)``: the mean number of attempts of a step retried until it succeeds,
   ``1/r`` (geometric; infinite for a score of 0): a plan's sum and the optimum's other objective.
 
@@ -22,11 +24,15 @@ about 0.1 ms for 100 trials.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = ["log_comb", "high_count", "binomial_tail", "tail_at_least", "successes_of",
-           "clopper_pearson", "bonferroni", "check_level", "expected_attempts"]
+           "clopper_pearson", "bonferroni", "check_level", "expected_attempts", "Rate", "rate",
+           "RATE_LEVEL"]
+
+RATE_LEVEL = 0.95  # the level of a measured rate's interval (``rate``)
 
 _HALVINGS = 60
 
@@ -132,3 +138,35 @@ def expected_attempts(score: float) -> float:
     """The expected attempts of a step of score ``r`` retried until it succeeds, ``1/r`` (the
     mean of a geometric distribution); infinite for a score of 0 (it never succeeds)."""
     return 1.0 / score if score > 0.0 else math.inf
+
+
+@dataclass(frozen=True)
+class Rate:
+    """``successes`` of ``trials`` with the Clopper-Pearson interval ``[low, high]`` at
+    ``RATE_LEVEL``."""
+
+    successes: int
+    trials: int
+    low: float
+    high: float
+
+    @property
+    def value(self) -> float:
+        return self.successes / self.trials if self.trials else float("nan")
+
+    @property
+    def half_width(self) -> float:
+        return (self.high - self.low) / 2
+
+    def text(self) -> str:
+        return f"{self.value:.3f} [{self.low:.3f}, {self.high:.3f}] ({self.successes}/{self.trials})"
+
+    def to_dict(self) -> dict:
+        return {"successes": self.successes, "trials": self.trials, "rate": self.value,
+                "interval": [self.low, self.high], "level": RATE_LEVEL}
+
+
+def rate(successes: int, trials: int) -> Rate:
+    """The rate ``successes / trials`` with its Clopper-Pearson interval at ``RATE_LEVEL``."""
+    lo, hi = clopper_pearson(successes, trials, RATE_LEVEL)
+    return Rate(int(successes), int(trials), float(lo), float(hi))

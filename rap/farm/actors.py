@@ -6,6 +6,8 @@ cached); it carries a batch of operations with their content keys and per-operat
 label depends only on (root seed, content key), never on which worker ran it or when. Physics spaces
 are built inside the worker by the simulator; nothing live crosses the wire. A task returns a
 ``BatchResult``: one row per operation in the dataset schema (``rap.dataset.SCHEMA``) plus timings.
+A ``RolloutTask`` (chunks of whole-plan rollouts, ``rap.execution``) goes through the same actors
+and the same retries; its outcomes come back in the result's ``extra["chunks"]``.
 
 The simulator and renderer are looked up by import path (``Backend``), so the same actor serves the
 real physics (the default) and anything with the same signatures. The backend's warm-up (loading
@@ -33,7 +35,8 @@ from rap.operation import Operation
 from rap.labelling.rows import Backend, label_rows, resolve, rows_table
 from rap.farm.runtime import node_label
 
-__all__ = ["Backend", "SimTask", "BatchResult", "SimWorker", "resolve", "pack", "unpack"]
+__all__ = ["Backend", "SimTask", "RolloutTask", "BatchResult", "SimWorker", "resolve", "pack",
+           "unpack"]
 
 _ASSEMBLY_CACHE = 32  # assemblies kept per worker (LRU, by geometry hash)
 
@@ -53,6 +56,24 @@ class SimTask:
     params: Any  # rap.sim.params.SimParams
     params_json: str
     images: bool = True
+
+
+@dataclass(frozen=True)
+class RolloutTask:
+    """Chunks of whole-plan rollouts (``rap.execution.rollout``) of one plan: ``work`` holds
+    ``(first, count)`` per chunk; ``keys`` names them (the pool's retry bookkeeping)."""
+
+    task_id: int
+    assembly_name: str
+    geometry_hash: str
+    assembly_ref: list
+    plan: Any  # rap.execution.rollout.RolloutPlan
+    root_seed: int
+    work: tuple[tuple[int, int], ...]
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return tuple(f"rollouts {f}-{f + c - 1}" for f, c in self.work)
 
 
 def pack(operation: Operation) -> bytes:
@@ -146,7 +167,9 @@ class SimWorker:
             self._assemblies.move_to_end(task.geometry_hash)
         return a
 
-    def run(self, task: SimTask) -> BatchResult:
+    def run(self, task: SimTask | RolloutTask) -> BatchResult:
+        if isinstance(task, RolloutTask):
+            return self._rollouts(task)
         t0 = time.perf_counter()
         simulate, render = self._functions(task.images)
         assembly = self._assembly(task)
@@ -157,3 +180,15 @@ class SimWorker:
         return BatchResult(task_id=task.task_id, table=rows_table(rows), node=self._node,
                            pid=self._pid,
                            assembly=task.assembly_name, sim_s=sim_s, render_s=render_s, task_s=time.perf_counter() - t0)
+
+    def _rollouts(self, task: RolloutTask) -> BatchResult:
+        """A ``RolloutTask``'s chunks; their ``ChunkOutcome`` s in ``extra["chunks"]``."""
+        from rap.execution.rollout import run_chunks
+
+        t0 = time.perf_counter()
+        self._functions(False)  # the simulator loaded (warm-up joined)
+        out = run_chunks(self._assembly(task), task.plan, task.root_seed, task.work)
+        dt = time.perf_counter() - t0
+        return BatchResult(task_id=task.task_id, table=rows_table([]), node=self._node,
+                           pid=self._pid, assembly=task.assembly_name, sim_s=dt, task_s=dt,
+                           extra={"chunks": out})

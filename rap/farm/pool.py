@@ -152,49 +152,31 @@ class SimPool(WorkerSet):
         ``error`` set, the stream going on (``errors="collect"``). Closing the generator cancels
         what is in flight.
         """
+        return self._drive(_JobTasks(self, jobs, params, images, total), errors)
+
+    def run_tasks(self, tasks: Iterable[Any], *, errors: str = "raise") -> Iterator[BatchResult]:
+        """Run ready-made tasks (each with ``task_id``, ``assembly_name`` and ``keys``; what
+        ``SimWorker.run`` takes, e.g. ``rap.farm.actors.RolloutTask``) with ``stream``'s
+        retries and in-flight limit; yields each result in completion order."""
+        return self._drive(_ListTasks(tasks), errors)
+
+    def next_task_id(self) -> int:
+        with self._lock:
+            self._next_task += 1
+            return self._next_task
+
+    def _drive(self, source, errors: str) -> Iterator[BatchResult]:
+        """``stream``'s loop over the tasks of ``source`` (``more``: tasks may still come;
+        ``next()``: the next task, or None)."""
         if errors not in ("raise", "collect"):
             raise ValueError("errors must be 'raise' or 'collect'")
         if self._stop.is_set():
             raise RuntimeError("SimPool has been shut down")
-        pjson = params_json(params)
-        it = iter(jobs)
-        head: list[Job] = []  # one look-ahead job that belongs to the next batch
-        exhausted = False
-        submitted = 0
         in_flight: dict[Any, tuple[Tries, int]] = {}  # ref -> (the batch, its actor)
         retry: list[Tries] = []  # batches to send again (each when its backoff is over)
         idle_since: float | None = None  # since when work has waited with no started actor
         demand = [False]  # whether this call counts among the pool's callers with work queued
         began = time.monotonic()
-
-        def next_task() -> SimTask | None:
-            nonlocal exhausted, submitted
-            remaining = None if total is None else max(1, total - submitted)
-            want = self._batch_len(remaining)
-            batch: list[Job] = head[:]
-            head.clear()
-            while len(batch) < want and not exhausted:
-                try:
-                    j = next(it)
-                except StopIteration:
-                    exhausted = True
-                    break
-                if batch and j.assembly.geometry_hash != batch[0].assembly.geometry_hash:
-                    head.append(j)
-                    break
-                batch.append(j)
-            if not batch:
-                return None
-            submitted += len(batch)
-            a = batch[0].assembly
-            with self._lock:
-                self._next_task += 1
-                task_id = self._next_task
-            return SimTask(task_id=task_id, assembly_name=a.name,
-                           geometry_hash=a.geometry_hash, assembly_ref=[self.put_assembly(a)],
-                           operations=tuple(j.operation for j in batch),
-                           keys=tuple(j.key for j in batch), seeds=tuple(j.seed for j in batch),
-                           params=params, params_json=pjson, images=images)
 
         def due() -> Tries | None:
             now = time.monotonic()
@@ -206,7 +188,7 @@ class SimPool(WorkerSet):
         try:
             while True:
                 self._poll()
-                fresh = bool(head) or not exhausted
+                fresh = source.more
                 self._want(fresh or bool(retry), demand)
                 if fresh or retry:
                     self._demand(fresh, bool(retry))
@@ -214,7 +196,7 @@ class SimPool(WorkerSet):
                 while len(in_flight) < cap:
                     t = due()
                     if t is None:
-                        task = next_task() if head or not exhausted else None
+                        task = source.next() if source.more else None
                         if task is None:
                             break
                         t = Tries(task)
@@ -224,7 +206,7 @@ class SimPool(WorkerSet):
                         break
                     in_flight[sent[0]] = (t, sent[1])
                 if not in_flight:
-                    if not retry and not head and exhausted:
+                    if not retry and not source.more:
                         return
                     now = time.monotonic()
                     idle_since = None if self._started else (idle_since or now)
@@ -313,6 +295,8 @@ class SimPool(WorkerSet):
                            assembly=task.assembly_name, error=msg)
 
     def _account(self, res: BatchResult) -> None:
+        if "chunks" in res.extra:  # rollouts: not labels, no batch-size statistics
+            return
         n = max(1, res.num_rows)
         per = res.task_s / n
         with self._lock:
@@ -346,3 +330,61 @@ class SimPool(WorkerSet):
                     out[idx] = s
         return out  # type: ignore[return-value]
 
+
+
+class _JobTasks:
+    """``SimTask`` s from a stream of jobs: consecutive jobs of one assembly batched (the batch's
+    length from ``SimPool._batch_len``)."""
+
+    def __init__(self, pool: SimPool, jobs: Iterable[Job], params: Any, images: bool,
+                 total: int | None):
+        self.pool, self.params, self.images, self.total = pool, params, images, total
+        self.pjson = params_json(params)
+        self.it = iter(jobs)
+        self.head: list[Job] = []  # one look-ahead job that belongs to the next batch
+        self.exhausted = False
+        self.submitted = 0
+
+    @property
+    def more(self) -> bool:
+        return bool(self.head) or not self.exhausted
+
+    def next(self) -> SimTask | None:
+        remaining = None if self.total is None else max(1, self.total - self.submitted)
+        want = self.pool._batch_len(remaining)
+        batch: list[Job] = self.head[:]
+        self.head.clear()
+        while len(batch) < want and not self.exhausted:
+            try:
+                j = next(self.it)
+            except StopIteration:
+                self.exhausted = True
+                break
+            if batch and j.assembly.geometry_hash != batch[0].assembly.geometry_hash:
+                self.head.append(j)
+                break
+            batch.append(j)
+        if not batch:
+            return None
+        self.submitted += len(batch)
+        a = batch[0].assembly
+        return SimTask(task_id=self.pool.next_task_id(), assembly_name=a.name,
+                       geometry_hash=a.geometry_hash, assembly_ref=[self.pool.put_assembly(a)],
+                       operations=tuple(j.operation for j in batch),
+                       keys=tuple(j.key for j in batch), seeds=tuple(j.seed for j in batch),
+                       params=self.params, params_json=self.pjson, images=self.images)
+
+
+class _ListTasks:
+    """Ready-made tasks, in order."""
+
+    def __init__(self, tasks: Iterable[Any]):
+        self._left = list(tasks)
+        self._left.reverse()
+
+    @property
+    def more(self) -> bool:
+        return bool(self._left)
+
+    def next(self) -> Any:
+        return self._left.pop() if self._left else None

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 import pymunk
@@ -47,6 +48,7 @@ from rap.assembly import Assembly
 from rap.operation import Operation
 from rap.sim import kernel
 from rap.sim.params import DEFAULT_PARAMS, SimParams
+from rap.sim.layouts import TrialLayout, posed_points
 from rap.sim.placement import placement
 from rap.sim.outline import assembly_outlines
 from rap.sim.shapes import area_centroid
@@ -106,13 +108,17 @@ class Scene:
 
 
 def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
-                trials: int | None = None) -> Scene:
+                trials: int | None = None, *, layouts: Sequence[TrialLayout] | None = None
+                ) -> Scene:
     """Build the shared space: ``trials`` moving bodies at the start, each with its static copy.
 
     The fixed pieces of every trial hang on the space's own static body (translated to the trial's
     origin), so the only bodies the batched getters visit are the moving ones, in trial order.
+    ``layouts`` (one per trial; ``trials`` is then their number): trials whose fixed parts lie
+    where earlier steps left them and whose moving body holds its parts off their place
+    (``rap.sim.layouts``); the start, the path and the goal are the exact assembly's.
     """
-    n = params.trials if trials is None else trials
+    n = len(layouts) if layouts is not None else params.trials if trials is None else trials
     pl = placement(assembly, operation, params.start_gap)
     scale = params.world_size / pl.extent
     cx, cy = pl.center
@@ -125,6 +131,17 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
     moving = [world(pc) for i in sorted(operation.moving) for pc in pieces[i]]
     _, gx, gy = area_centroid(moving)
     moving_local = [[(x - gx, y - gy) for x, y in pc] for pc in moving]
+    fixed_of, moving_of = [fixed] * n, [moving_local] * n
+    if layouts is not None:
+        def posed(ids, lay):
+            return [world(posed_points(pc, lay.poses[i]) if i in lay.poses else pc)
+                    for i in sorted(ids) for pc in pieces[i]]
+
+        fixed_of = [posed(operation.fixed, lay) for lay in layouts]
+        moving_of = [[posed_points([(x - gx, y - gy) for x, y in pc],
+                                   ((0.0, 0.0), (lay.grasp[0] * scale, lay.grasp[1] * scale),
+                                    lay.grasp[2])) for pc in posed(operation.moving, lay)]
+                     for lay in layouts]
     goal = np.array([gx, gy])
     d = np.array(pl.direction, dtype=float)
     length = pl.travel * scale
@@ -146,7 +163,7 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
         filt = pymunk.ShapeFilter(categories=1 << (k % 32), mask=1 << (k % 32))
         body = pymunk.Body()
         shapes = []
-        for pc in moving_local:
+        for pc in moving_of[k]:
             sh = pymunk.Poly(body, pc, radius=params.poly_radius)
             c = sh._shape
             set_density(c, params.density)
@@ -160,7 +177,7 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
         movers.append(body)
         ox, oy = float(origins[k, 0]), float(origins[k, 1])
         sshapes = []
-        for pc in fixed:
+        for pc in fixed_of[k]:
             sh = pymunk.Poly(ground, [(x + ox, y + oy) for x, y in pc], radius=params.poly_radius)
             c = sh._shape
             set_friction(c, params.friction)
@@ -213,8 +230,10 @@ def _constants(scene: Scene, p: SimParams, record_every: int) -> np.ndarray:
     return np.array([float(values[k]) for k in kernel.CONSTANTS])
 
 
-def run_trials(scene: Scene, params: SimParams, rng: np.random.Generator,
-               record: int = 0, record_every: int = 1, log: np.ndarray | None = None) -> RunInfo:
+def run_trials(scene: Scene, params: SimParams, rng: np.random.Generator | None,
+               record: int = 0, record_every: int = 1, log: np.ndarray | None = None, *,
+               trial_rngs: Sequence[np.random.Generator] | None = None,
+               settle_steps: int = 0) -> RunInfo:
     """Run the controller on every trial of ``scene`` (consumed: bodies are removed from it).
 
     The compiled loop (``rap.sim.kernel.control_steps``) runs until a trial is decided; decided
@@ -224,6 +243,12 @@ def run_trials(scene: Scene, params: SimParams, rng: np.random.Generator,
     The recording holds, for trials ``0..record-1``, the pose (position of the moving body in the
     trial's frame, angle) every ``record_every`` control steps. ``log`` (float64 [control steps,
     trials + 1, 3], zeros) receives the commands applied at each step, for benchmarks' replays.
+    ``trial_rngs`` (one per trial, instead of ``rng``): trial t's noise column comes from its own
+    generator, so it does not depend on the other trials' (whole-plan rollouts, each seeded).
+    ``settle_steps`` > 0: a trial that succeeds stays in the space, under control and without
+    noise (the arm holds its goal), for that many control steps more (its outcome is decided; its
+    recording goes on): where a rollout's part comes to rest, not where it first came within the
+    tolerance.
     """
     space, n = scene.space, len(scene.movers)
     p = params
@@ -259,27 +284,43 @@ def run_trials(scene: Scene, params: SimParams, rng: np.random.Generator,
     schedule = []
     n_removed = 0
     c = 0
+    settle_at: dict[int, int] = {}  # succeeded trial -> control step at which it leaves
     while c < n_ctrl:
         if p.eta > 0 and c % _NOISE_CHUNK == 0:
-            chunk = rng.uniform(-p.eta, p.eta, size=(_NOISE_CHUNK, n))
-        c_end = min(n_ctrl, (c // _NOISE_CHUNK + 1) * _NOISE_CHUNK)
-        status, c, bs = kernel.control_steps(api.ptrs, K, c, c_end, api.gnum, api.get, api.snum,
-                                             api.sarr, ox, oy, carrot, best, last_improve, live,
-                                             rows, chunk, rec, decided, log_arr)
+            chunk = (rng.uniform(-p.eta, p.eta, size=(_NOISE_CHUNK, n)) if trial_rngs is None
+                     else np.column_stack([r.uniform(-p.eta, p.eta, _NOISE_CHUNK)
+                                           for r in trial_rngs]))
+            if settle_at:
+                chunk[:, list(settle_at)] = 0.0
+        c_end = min([n_ctrl, (c // _NOISE_CHUNK + 1) * _NOISE_CHUNK, *settle_at.values()])
+        status, bs = kernel.RAN_OUT, 0
+        if c_end > c:
+            status, c, bs = kernel.control_steps(api.ptrs, K, c, c_end, api.gnum, api.get,
+                                                 api.snum, api.sarr, ox, oy, carrot, best,
+                                                 last_improve, live, rows, chunk, rec, decided,
+                                                 log_arr)
         body_steps += bs
-        if status != kernel.DECIDED:
+        due = [t for t, at in settle_at.items() if at <= c]
+        if status != kernel.DECIDED and not due:
             continue
-        hit = np.flatnonzero(decided[:len(rows)])
-        succ, fail = rows[hit[decided[hit] == 1]], rows[hit[decided[hit] == 2]]
-        outcome[succ], outcome[fail] = 1, -1
-        live[hit] = 0
-        decided[hit] = 0
-        if rec_decided is not None:
-            for t in rows[hit]:
-                if t < record:
-                    rec_decided[t] = c // max(1, record_every)
-        if p.retire:
-            gone = rows[hit]
+        gone = due
+        for t in due:
+            del settle_at[t]
+        if status == kernel.DECIDED:
+            hit = np.flatnonzero(decided[:len(rows)])
+            succ, fail = rows[hit[decided[hit] == 1]], rows[hit[decided[hit] == 2]]
+            outcome[succ], outcome[fail] = 1, -1
+            live[hit] = 0
+            decided[hit] = 0
+            if rec_decided is not None:
+                for t in rows[hit]:
+                    if t < record:
+                        rec_decided[t] = c // max(1, record_every)
+            settle_at.update((int(t), c + settle_steps) for t in succ if settle_steps > 0)
+            if settle_at and p.eta > 0:
+                chunk[:, list(settle_at)] = 0.0  # settling: the arm holds its goal, no noise
+            gone = gone + [int(t) for t in (fail if settle_steps > 0 else rows[hit])]
+        if p.retire and gone:
             for t in gone:
                 remove_trial(scene, int(t))
             n_removed += len(gone)
@@ -295,8 +336,10 @@ def run_trials(scene: Scene, params: SimParams, rng: np.random.Generator,
             api.sarr[:len(where)] = api.sarr[where]
             api.sarr[len(where):] = 0.0
             decided = np.zeros(len(where), dtype=np.uint8)
-        elif not live.any():
+        elif not p.retire and not live.any() and not settle_at:
             break
+        if status != kernel.DECIDED:  # a settled trial left before step c's commands
+            continue
         if log is not None:
             log[c] = api.sarr
         kernel.apply_and_step(api.ptrs, api.snum, k_sub, p.dt_s)

@@ -7,9 +7,15 @@ budget of simulations or seconds).
 ``PlanStep``: one assembly operation in assembly order; ``direction`` (also ``insertion``) is the
 unit vector along which ``moving`` travels to its place, the *insertion* direction (the NDBG's
 removal direction is its opposite); ``score`` the simulator's score of that operation (every
-returned sequence is evaluated by the simulator); ``source`` what chose it (``"cnn"``, ``"sim"`` or
-``"random"``; ``"free"``: an operation robust by geometry, scored 1 without the simulator or the
-model, ``PlanningProblem.is_free``); ``confidence`` the CNN's P(high) when the CNN chose it, else ``None``. Filled in by
+returned sequence is evaluated by the simulator); ``source`` what chose it (``"model"``: the
+learned scorer, the default's cascade of trees and CNN or RAP's CNN; ``"sim"``, ``"random"``;
+``"free"``: an operation robust by geometry, scored 1 without the simulator or the model,
+``PlanningProblem.is_free``); ``confidence`` the model's P(high) where a planner ranked by it
+(RAP), else ``None``; ``predicted`` the model's expected score where a planner multiplied it (the
+search), else ``None``. Format 3 adds ``execution`` (``rap.plan.report.execution.StepExecution``:
+success once reached, clearance, tolerance) per step and ``sequence_success``
+(``SequenceReport``) per plan; formats 1 and 2 (whose ``source`` said ``"cnn"`` for ``"model"``)
+are read too. Filled in by
 ``rap.plan.report.poses.annotate_plan``: ``score_interval`` (``rap.plan.report.intervals``),
 ``reason`` (``rap.plan.report.reasons``) and ``robot`` (a ``RobotMove``: start, approach and goal poses,
 travel, in the assembly's units; ``rap.plan.report.poses``).
@@ -31,15 +37,18 @@ from typing import Sequence
 
 from rap.operation import Operation
 from rap.plan.interlocked import interlocked_message
+from rap.plan.report.execution import SequenceReport, StepExecution
 from rap.stats import expected_attempts
 
 __all__ = ["PlanStatus", "PlanStep", "PlanResult", "RobotMove", "SOURCES", "FORMAT",
            "is_assembly_order"]
 
-SOURCES = ("cnn", "sim", "random", "free")
-#: the plan document's format: 2 names a step's direction ``insertion`` (1: ``direction``) and
-#: carries ``format``; 1 is every document without it
-FORMAT = 2
+SOURCES = ("model", "sim", "random", "free")
+#: the plan document's format: 3 adds ``sequence_success`` and each step's ``execution`` and
+#: ``predicted`` (the search's expected score, which format 2 wrote in ``confidence``) and says
+#: ``"model"`` where 2 said ``"cnn"``; 2 names a step's direction ``insertion`` (1:
+#: ``direction``) and carries ``format``; 1 is every document without it
+FORMAT = 3
 #: how many of a plan's weakest steps the document and the table name
 WEAKEST = 3
 
@@ -104,6 +113,8 @@ class PlanStep:
     score_interval: tuple[float, float] | None = None
     reason: str | None = None
     robot: RobotMove | None = None
+    predicted: float | None = None
+    execution: StepExecution | None = None
 
     @property
     def insertion(self) -> tuple[float, float]:
@@ -112,11 +123,12 @@ class PlanStep:
 
     @classmethod
     def of(cls, op: Operation, source: str, confidence: float | None = None,
-           score: float | None = None) -> "PlanStep":
+           score: float | None = None, predicted: float | None = None) -> "PlanStep":
         return cls(tuple(sorted(op.moving)), tuple(sorted(op.fixed)),
                    (float(op.direction[0]), float(op.direction[1])), source,
                    None if score is None else float(score),
-                   None if confidence is None else float(confidence), op)
+                   None if confidence is None else float(confidence), op,
+                   predicted=None if predicted is None else float(predicted))
 
     def to_operation(self) -> Operation:
         if self.operation is not None:
@@ -129,20 +141,28 @@ class PlanStep:
                 "score": self.score,
                 "score_interval": None if self.score_interval is None
                 else list(self.score_interval),
-                "source": self.source, "confidence": self.confidence, "reason": self.reason,
-                "robot": None if self.robot is None else self.robot.to_json()}
+                "source": self.source, "confidence": self.confidence,
+                "predicted": self.predicted, "reason": self.reason,
+                "robot": None if self.robot is None else self.robot.to_json(),
+                "execution": None if self.execution is None else self.execution.to_json()}
 
     @classmethod
-    def from_json(cls, s: dict) -> "PlanStep":
-        """A step of a plan document (``"direction"`` for ``"insertion"`` in older ones)."""
-        lo_hi, robot = s.get("score_interval"), s.get("robot")
+    def from_json(cls, s: dict, fmt: int = FORMAT) -> "PlanStep":
+        """A step of a plan document of format ``fmt`` (``"direction"`` for ``"insertion"`` in
+        format 1; ``"cnn"`` for ``"model"`` before format 3)."""
+        lo_hi, robot, ex = s.get("score_interval"), s.get("robot"), s.get("execution")
+        source = str(s["source"])
+        predicted = s.get("predicted")
         return cls(tuple(map(str, s["moving"])), tuple(map(str, s["fixed"])),
                    _pair(s["insertion"] if "insertion" in s else s["direction"]),
-                   str(s["source"]), None if s["score"] is None else float(s["score"]),
+                   "model" if fmt < 3 and source == "cnn" else source,
+                   None if s["score"] is None else float(s["score"]),
                    None if s["confidence"] is None else float(s["confidence"]),
                    score_interval=None if lo_hi is None else _pair(lo_hi),
                    reason=None if s.get("reason") is None else str(s["reason"]),
-                   robot=None if robot is None else RobotMove.from_json(robot))
+                   robot=None if robot is None else RobotMove.from_json(robot),
+                   predicted=None if predicted is None else float(predicted),
+                   execution=None if ex is None else StepExecution.from_json(ex))
 
 
 def is_assembly_order(steps: Sequence[PlanStep], parts: Sequence[str]) -> str | None:
@@ -193,6 +213,7 @@ class PlanResult:
     robustness_interval: tuple[float, float] | None = None
     confidence_level: float | None = None
     bound: dict | None = None  # the optimum's upper bound (rap.plan.search.scores.report)
+    sequence: SequenceReport | None = None  # measured by rollouts (``sequence_success``)
 
     @property
     def found(self) -> bool:
@@ -213,11 +234,13 @@ class PlanResult:
             raise ValueError(f"plan format {fmt!r}: this rap-farm reads formats 1 to {FORMAT}")
         try:
             feasible = doc["feasible"]
-            cell = {k: doc[k] for k in ("constraints", "score_note") if doc.get(k) is not None}
+            cell = {k: doc[k] for k in ("constraints", "score_note", "guard")
+                    if doc.get(k) is not None}
             common = dict(method=str(doc["method"]), assembly=str(doc["assembly"]),
                           eval_seconds=float(eval_seconds), stats={**cell, **(stats or {})})
             if feasible is True:
-                steps = tuple(PlanStep.from_json(s) for s in doc["steps"])
+                steps = tuple(PlanStep.from_json(s, fmt) for s in doc["steps"])
+                seq = doc.get("sequence_success")
                 r, r_lo_hi = doc["robustness"], doc.get("robustness_interval")
                 trials, level = doc.get("trials"), doc.get("confidence_level")
                 return cls(PlanStatus.FOUND, steps=steps, robustness=None if r is None else float(r),
@@ -226,6 +249,7 @@ class PlanResult:
                            robustness_interval=None if r_lo_hi is None else _pair(r_lo_hi),
                            confidence_level=None if level is None else float(level),
                            bound=None if doc.get("bound") is None else dict(doc["bound"]),
+                           sequence=None if seq is None else SequenceReport.from_json(seq),
                            **common)
             if feasible is False:
                 parts = tuple(map(str, doc["interlocked"]))
@@ -239,8 +263,11 @@ class PlanResult:
 
     def _cell_json(self) -> dict:
         """The robot cell's constraints and what the scores cover, when the plan had any
-        (``rap.plan.cell.rules.constraint_stats``: ``constraints``, ``score_note`` in ``stats``)."""
-        return {k: self.stats[k] for k in ("constraints", "score_note") if k in self.stats}
+        (``rap.plan.cell.rules.constraint_stats``: ``constraints``, ``score_note`` in ``stats``),
+        and ``guard`` when the default scorer found the assembly unfamiliar and acted
+        (``rap.plan.scoring.familiarity.guard_stats``)."""
+        return {k: self.stats[k] for k in ("constraints", "score_note", "guard")
+                if k in self.stats}
 
     @property
     def expected_failures(self) -> float | None:
@@ -285,6 +312,8 @@ class PlanResult:
                     "weakest_steps": self.weakest_steps(),
                     "steps": [s.to_json() for s in self.steps], "seconds": self.seconds,
                     **({} if self.bound is None else {"bound": dict(self.bound)}),
+                    "sequence_success": None if self.sequence is None
+                    else self.sequence.to_json(),
                     **self._cell_json()}
         if self.status is PlanStatus.INFEASIBLE:
             return {"assembly": self.assembly, "method": self.method, "feasible": False,

@@ -19,6 +19,9 @@ loading the simulator with public calls only (``Process.kill``, then ``shutdown(
 each ``(op, index, trials)`` one run of ``trials`` trials from ``chunk_seed(problem.seed(op),
 index)``, in the same way (never cached: not labels).
 
+``run_rollouts(assembly, plan, root_seed, work)``: chunks of whole-plan rollouts
+(``rap.execution``) on the same workers.
+
 Same seeds, same scores in every configuration. No ray, no torch.
 
 Example::
@@ -63,6 +66,12 @@ def _simulate_one(simulate: Callable | None, assembly, op, params, seed: int) ->
 
 def _simulate_task(args) -> CachedScore:  # runs in a worker process
     return _simulate_one(None, *args)
+
+
+def _rollout_task(args):  # runs in a worker process
+    from rap.execution.rollout import run_chunk
+
+    return run_chunk(*args)
 
 
 def _worker_init(warmed=None) -> None:
@@ -156,6 +165,24 @@ class LocalSimulator:
 
     def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
         return self._run([(problem.assembly, op, problem.params, problem.seed(op)) for op in ops])
+
+    def run_rollouts(self, assembly, plan, root_seed: int, work: Sequence[tuple[int, int]]):
+        """Chunks of whole-plan rollouts (``rap.execution.sequence.RolloutRunner``), over the
+        worker processes when there are two chunks or more; results in the order of ``work``,
+        the same in every configuration (each chunk depends on its indices only)."""
+        from rap.execution.rollout import run_chunk
+
+        jobs = [(assembly, plan, root_seed, first, count) for first, count in work]
+        pool = self._pool() if self.prestarted or len(jobs) >= 2 else None
+        if pool is not None:
+            from concurrent.futures.process import BrokenProcessPool
+
+            try:
+                return list(pool.map(_rollout_task, jobs))
+            except BrokenProcessPool:
+                self.close()
+                self.prestarted, self.processes = False, 1
+        return [run_chunk(*j) for j in jobs]
 
     def _run(self, jobs: list) -> list[CachedScore]:
         pool = self._pool() if self.prestarted or len(jobs) >= self.min_batch else None
