@@ -592,8 +592,10 @@ def test_export_answers_the_program_as_an_attachment(service):
     assert status == 400 and json.loads(text)["error"].startswith("request body must be")
     schema = json.loads(_get(service + "/openapi.json"))["paths"]["/export"]["post"]
     body_schema = schema["requestBody"]["content"]["application/json"]["schema"]
-    assert body_schema["properties"]["format"]["enum"] == ["urscript", "waypoints-csv",
-                                                           "waypoints-json"]
+    from rap.robot.arms.registry import ARMS, FORMATS
+
+    assert body_schema["properties"]["format"]["enum"] == list(FORMATS)
+    assert body_schema["properties"]["arm"]["enum"] == list(ARMS)
     assert "422" in schema["responses"]
 
 
@@ -610,7 +612,8 @@ def test_the_page_downloads_the_robot_program(page, service, tmp_path):
         page.click("#dl-program")
     page.wait_for_selector("body[data-program=refused]", timeout=60_000)
     sent_body = json.loads(sent.value.post_data)
-    assert set(sent_body) == {"assembly", "plan", "format"} and sent_body["format"] == "urscript"
+    assert set(sent_body) == {"assembly", "plan", "arm", "format"}
+    assert (sent_body["arm"], sent_body["format"]) == ("ur5e", "urscript")  # the page's default
     message = page.inner_text("#message")
     assert message.startswith("robot program: the plan has no fixture (made without --base)")
     assert "a two-handed step needs a second fixture" in message and "\n" not in message

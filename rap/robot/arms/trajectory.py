@@ -153,9 +153,10 @@ def plan_trajectory(program: Program, report: KinematicReport) -> JointTrajector
     segments, moves = [], []
     for wp, path in zip(program.waypoints, report.paths):
         knots = np.vstack([q_prev, path])
-        if wp.motion == "movel" and len(path) > 1:
-            length = float(np.linalg.norm(np.subtract(wp.position, prev_pos)))
-            spline = _Spline(knots, max(length, 1e-9))
+        length = (float(np.linalg.norm(np.subtract(wp.position, prev_pos)))
+                  if wp.motion == "movel" and len(path) > 1 else 0.0)
+        if length > 1e-6:  # a line; one of no length is timed as a joint move
+            spline = _Spline(knots, length)
             caps = (wp.speed, mo.linear_acceleration_m_s2, LINEAR_JERK_M_S3)
         else:
             length, spline = 1.0, _Spline(knots[[0, -1]], 1.0)
@@ -186,7 +187,8 @@ def _move_samples(move: PathMove, t: np.ndarray, jerk: bool):
             continue
         lo = move.profile.at_time(max(0.0, float(tk) - h))[2][0]
         hi = move.profile.at_time(min(move.duration, float(tk) + h))[2][0]
-        sddd[k] = (hi - lo) / (min(move.duration, tk + h) - max(0.0, tk - h))
+        span = min(move.duration, tk + h) - max(0.0, tk - h)
+        sddd[k] = (hi - lo) / span if span > 0 else 0.0
     q, d1, d2, d3 = move.spline.eval(s)
     sd, sdd, sddd = sd[:, None], sdd[:, None], sddd[:, None]
     return (q, d1 * sd, d2 * sd ** 2 + d1 * sdd,

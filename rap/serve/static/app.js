@@ -15,8 +15,9 @@
 // per assembly shipped in the package (GET /examples, no token needed); a click fetches its JSON
 // (GET /examples/NAME) and reads it exactly as a dropped NAME.json. Every request carries
 // the token typed in the header (kept in sessionStorage) as "Authorization: Bearer <token>".
-// Beside the storyboard, "robot program" asks POST /export for one arm's program of the plan shown
-// (URScript or waypoints, checked by the arm's kinematics) and saves the answer under the name the
+// Beside the storyboard, "robot program" asks POST /export for the chosen arm's program of the plan
+// shown (URScript for a UR, a joint trajectory for the Panda, or waypoints; checked by that arm's
+// kinematics) and saves the answer under the name the
 // service gives; a refusal (a plan made without a base part in the fixture, a step out of reach)
 // is the service's one line where the page shows its errors. body[data-program] says how the last
 // one went: asking, saved, refused.
@@ -653,16 +654,36 @@
   }
 
   // -- the robot program ----------------------------------------------------------------------------
-  // POST /export with the assembly and the plan's own text (no number changes on the way); the
-  // answer is the program file, saved under the name its Content-Disposition gives
+  // the formats each arm takes, its first the default (rap/robot/arms/registry.py: ArmSpec.formats)
+  const ARM_FORMATS = {
+    ur5e: [["urscript", "URScript"], ["waypoints-csv", "CSV"], ["waypoints-json", "JSON"]],
+    ur10e: [["urscript", "URScript"], ["waypoints-csv", "CSV"], ["waypoints-json", "JSON"]],
+    panda: [["joint-trajectory-yaml", "trajectory YAML"], ["joint-trajectory-json",
+      "trajectory JSON"], ["waypoints-csv", "CSV"], ["waypoints-json", "JSON"]],
+  };
+  function armFormats() { // the format select follows the arm; a format both take is kept
+    const sel = $("program-format"), was = sel.value;
+    const formats = ARM_FORMATS[$("program-arm").value] || [];
+    sel.replaceChildren(...formats.map(([value, label]) => {
+      const o = document.createElement("option");
+      o.value = value;
+      o.textContent = label;
+      return o;
+    }));
+    if (formats.some(([value]) => value === was)) sel.value = was;
+  }
+
+  // POST /export with the assembly, the plan's own text (no number changes on the way) and the
+  // chosen arm and format; the answer is the program file, saved under the name its
+  // Content-Disposition gives
   async function downloadProgram() {
     if (!state.plan || !state.planText || !state.inspected) return;
-    const gen = state.gen, format = $("program-format").value;
+    const gen = state.gen, format = $("program-format").value, arm = $("program-arm").value;
     say("");
     document.body.dataset.program = "asking";
     $("dl-program").disabled = true;
     const body = `{"assembly":${JSON.stringify(state.inspected.assembly)},` +
-      `"plan":${state.planText},"format":${JSON.stringify(format)}}`;
+      `"plan":${state.planText},"arm":${JSON.stringify(arm)},"format":${JSON.stringify(format)}}`;
     try {
       const { text, headers } = await request("/export", { method: "POST", body,
         headers: { "Content-Type": "application/json" } });
@@ -721,6 +742,7 @@
       { type: "image/svg+xml" }), stem() + "-storyboard.svg"));
     $("dl-png").addEventListener("click", downloadPng);
     $("dl-program").addEventListener("click", downloadProgram);
+    $("program-arm").addEventListener("change", armFormats);
   }
 
   wire();
