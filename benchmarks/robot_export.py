@@ -1,8 +1,8 @@
 """Benchmark of ``rap-farm export``: the 22-brick wall's plan to a program, and its kinematic check.
 
 Prints the median wall time over ``--repeat`` runs of (1) building the program from the plan
-(``rap.robot.program.build_program``: grasps, tray, 176 waypoints) and writing it as URScript
-and as JSON waypoints, with the plan and assembly already read; (2) reading the plan and the
+(``rap.robot.program.build_program``: grasps, tray, 176 waypoints) and writing its waypoints as
+CSV and JSON (the arms' own formats: ``benchmarks/robot_arms.py``), with the plan and assembly already read; (2) reading the plan and the
 assembly; (3) the kinematic check (``rap.robot.kinematics.check_program``: every waypoint and
 every linear segment at 8 points, about 970 IK solves), with and without opening the pybullet
 world; and the solve rate. Targets of issue 39: export under 1 s, the check under 2 s.
@@ -27,7 +27,8 @@ from rap.robot.cell import Cell  # noqa: E402
 from rap.robot.inputs import load_plan_and_assembly  # noqa: E402
 from rap.robot.kinematics import IkSolver, check_program  # noqa: E402
 from rap.robot.program import build_program  # noqa: E402
-from rap.robot.writers import write_program  # noqa: E402
+from rap.robot.arms.export import render  # noqa: E402
+from rap.robot.cell import with_  # noqa: E402
 
 PLAN = ROOT / "tests" / "robot" / "data" / "brick-wall-22.plan.json"
 ASSEMBLY = ROOT / "assemblies" / "cells" / "brick-wall-22.json"
@@ -56,10 +57,12 @@ def main() -> None:
     read = lambda: load_plan_and_assembly(PLAN, ASSEMBLY)  # noqa: E731
     t_read, (plan, _doc, asm) = timed(read, args.repeat)
     with tempfile.TemporaryDirectory() as tmp:
-        def export():
+        def export():  # the waypoints (no kinematics); the arms' own formats: robot_arms.py
             prog = build_program(plan, asm, Cell())
-            write_program(prog, Path(tmp) / "wall.script", "urscript")
-            write_program(prog, Path(tmp) / "wall.json", "waypoints")
+            (Path(tmp) / "wall.csv").write_text(render(prog, "waypoints-csv", None))
+            (Path(tmp) / "wall.json").write_text(render(prog, "waypoints-json", None))
+            render(build_program(plan, asm, with_(Cell(), "robot", arm="ur5e")),
+                   "waypoints-json", None)
             return prog
 
         t_export, prog = timed(export, args.repeat)

@@ -32,7 +32,7 @@ def test_every_waypoint_and_line_of_the_stack_is_reached(stack):
 def test_an_assembly_3_m_away_exits_1_naming_the_step(tmp_path, run_cli):
     cell = tmp_path / "far.toml"
     cell.write_text("[assembly]\nposition_m = [3.0, 0.0]\n")
-    out = tmp_path / "far.script"
+    out = tmp_path / "far.yaml"
     code, _, err = run_cli("export", STACK_PLAN, "--assembly", STACK, "--cell", cell, "-o", out)
     assert code == 1
     line = err.strip()

@@ -70,9 +70,9 @@ def test_a_two_handed_plan_is_refused_in_one_line(change, words, tmp_path, run_c
     assert words in str(err.value) and "second fixture" in str(err.value)
     path = tmp_path / "plan.json"
     path.write_text(json.dumps(d))
-    code, _, out = run_cli("export", path, "--assembly", STACK, "-o", tmp_path / "p.script")
+    code, _, out = run_cli("export", path, "--assembly", STACK, "-o", tmp_path / "p.yaml")
     assert code == 1 and words in out and len(out.strip().splitlines()) == 1
-    assert not (tmp_path / "p.script").exists()
+    assert not (tmp_path / "p.yaml").exists()
 
 
 def test_an_unknown_assembly_is_asked_for(tmp_path, run_cli):
