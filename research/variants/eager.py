@@ -15,6 +15,6 @@ __all__ = ["EagerSearchPlanner"]
 class EagerSearchPlanner(SearchPlanner):
     """The search with every operation of the graph predicted first, in one batch."""
 
-    def _exact(self, graph, scores, whole, stats, budget):
-        scores.predict([op for c in graph.values() for op in c])
-        return super()._exact(graph, scores, whole, stats, budget)
+    def _exact(self, run):
+        run.scores.predict([op for c in run.graph.values() for op in c])
+        return super()._exact(run)

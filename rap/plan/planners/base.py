@@ -1,7 +1,8 @@
 """The planner contract: ``Planner.solve(problem, scorer) -> PlanResult``, and its options.
 
-Every planner takes a ``PlanningProblem`` and a ``Scorer`` and returns a ``PlanResult`` with a
-status (OMPL's ``Planner::solve(ProblemDefinition) -> PlannerStatus``). Plans are found by
+Every planner takes a ``PlanningProblem`` and a scorer (``rap.plan.scoring.scorer.ScorerProtocol``,
+implemented by ``Scorer``) and returns a ``PlanResult`` with a status (OMPL's
+``Planner::solve(ProblemDefinition) -> PlannerStatus``). Plans are found by
 assembly-by-disassembly: a subassembly ``S`` is split by one of ``problem.candidates(S)`` into a
 moving and a fixed subassembly, and both sides are planned the same way down to single parts. The
 returned steps are in assembly order (children before parents: the disassembly sequence reversed),
@@ -31,14 +32,14 @@ from rap.plan.planners.options import PlannerOptions
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.poses import annotate_plan
 from rap.plan.report.result import PlanResult, PlanStatus, PlanStep
-from rap.plan.scoring.scorer import Budget, BudgetSpent, Scorer
+from rap.plan.scoring.scorer import Budget, BudgetSpent, ScorerProtocol
 
 __all__ = ["Planner", "evaluate_steps", "HIGH_PROBABILITY"]
 
 HIGH_PROBABILITY = 0.5  # the CNN's class decision: P(high) >= 0.5 is "high"
 
 
-def evaluate_steps(problem: PlanningProblem, scorer: Scorer,
+def evaluate_steps(problem: PlanningProblem, scorer: ScorerProtocol,
                    steps: Sequence[PlanStep]) -> list[PlanStep]:
     """The steps with their simulator scores (one batch; cached scores reused)."""
     scores = scorer.scores(problem, [s.to_operation() for s in steps])
@@ -62,10 +63,16 @@ class Planner(abc.ABC):
         for o in self.options.declared():
             setattr(self, o.name, getattr(self.options, o.name))
 
-    def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
+    def solve(self, problem: PlanningProblem, scorer: ScorerProtocol) -> PlanResult:
+        return self._solve(problem, scorer, self._search, {})
+
+    def _solve(self, problem: PlanningProblem, scorer: ScorerProtocol, search,
+               stats: dict) -> PlanResult:
+        """``solve`` with ``search(problem, scorer, stats)`` in ``_search``'s place, its counters
+        in ``stats``: a planner that passes a run state of its own to its search
+        (``rap.plan.search.run.SearchRun``) passes that run's search and stats."""
         t0 = time.perf_counter()
         scorer.started = t0
-        stats: dict = {}
         base = scorer.stats.to_dict()
 
         def counters() -> dict:
@@ -74,7 +81,7 @@ class Planner(abc.ABC):
 
         stats.update(constraint_stats(problem))  # the cell's constraints, the scores' scope
         try:  # a single part needs no step
-            steps = self._search(problem, scorer, stats) if len(problem.whole) >= 2 else []
+            steps = search(problem, scorer, stats) if len(problem.whole) >= 2 else []
         except Interlocked as exc:
             culprit, message = blocked_by(problem, exc.subset)  # an interlock or a constraint
             return PlanResult(PlanStatus.INFEASIBLE, self.name, problem.assembly.name,
@@ -104,6 +111,7 @@ class Planner(abc.ABC):
                                         stats={**stats, **counters()}), problem)
 
     @abc.abstractmethod
-    def _search(self, problem: PlanningProblem, scorer: Scorer, stats: dict) -> list[PlanStep]:
+    def _search(self, problem: PlanningProblem, scorer: ScorerProtocol,
+                stats: dict) -> list[PlanStep]:
         """The steps in assembly order (scores filled in later), or raise ``Interlocked``; the
         problem has at least two parts."""

@@ -24,7 +24,7 @@ from rap.plan.planners.base import HIGH_PROBABILITY, Planner
 from rap.plan.planners.options import PlannerOptions, option
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanStep
-from rap.plan.scoring.scorer import BudgetSpent, Scorer
+from rap.plan.scoring.scorer import BudgetSpent, ScorerProtocol
 
 __all__ = ["SimPlanner", "RapPlanner", "SimOptions", "RapOptions", "PAPER_RAP",
            "RAP_HIGH_PROBABILITY", "RAP_FALLBACK_OPTIMISM", "FALLBACK_ROUND"]
@@ -83,7 +83,7 @@ class _Greedy(Planner):
     finish = None
 
     @abc.abstractmethod
-    def _select(self, problem: PlanningProblem, scorer: Scorer,
+    def _select(self, problem: PlanningProblem, scorer: ScorerProtocol,
                 cands: list[tuple[Operation, ...]], stats: dict) -> list[PlanStep]:
         """One chosen step per open subassembly, given each one's candidate operations."""
 

@@ -21,7 +21,18 @@ every backend (the local simulator, the farm's pool, the CNN, the default cascad
 Backends: a simulator (``SimBackend``: ``simulate_many(problem, ops) -> list[CachedScore]``), such as
 ``rap.plan.scoring.local_simulator.LocalSimulator`` (this machine, optionally over forked worker processes)
 or the farm's pool; a CNN (``CnnBackend``), such as ``rap.model.inference.operations.OperationPredictor`` (renders
-each operation and runs the network, in torch or in numpy).
+each operation and runs the network, in torch or in numpy). A CNN backend may offer more, each
+declared as a protocol of its own and checked with ``isinstance`` (never looked up by name):
+``JointCnnBackend`` (both numbers from one pass), ``CalibratedBackend`` (score bounds fitted for
+its own numbers) and ``BatchFirstBackend`` (whether a large batch is cheaper than a few at a time);
+``rap.model.inference.cascade.CascadeScorer`` offers all three.
+
+**The scorer's protocol.** What planners ask of a scorer is declared once, ``ScorerProtocol``:
+the counters, budget and clock (``stats``, ``budget``, ``started``), ``is_free``, the simulator's
+``scores`` and ``results``, the CNN's ``prob_high``, ``expected_scores`` and
+``prob_high_and_expected``, and what the search plans by: ``bounds`` and ``batch_first``.
+``Scorer`` implements it; the planners (``rap.plan.planners``, ``rap.plan.search``) are written
+against it.
 
 ``on_progress(stats, running)``, when given, is called before each simulator batch (``running``:
 its size) and after each batch and CNN call (``running`` 0), with the scorer's counters: what a
@@ -43,7 +54,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Protocol, Sequence
+from typing import TYPE_CHECKING, Callable, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
@@ -51,7 +62,11 @@ from rap.operation import Operation
 from rap.plan.scoring.cache import CachedScore, ScoreCache
 from rap.plan.problem import PlanningProblem
 
-__all__ = ["SimBackend", "CnnBackend", "Scorer", "ScorerStats", "Budget", "BudgetSpent"]
+if TYPE_CHECKING:
+    from rap.model.calibration import ScoreBounds
+
+__all__ = ["SimBackend", "CnnBackend", "JointCnnBackend", "CalibratedBackend", "BatchFirstBackend",
+           "ScorerProtocol", "Scorer", "ScorerStats", "Budget", "BudgetSpent"]
 
 
 _FREE = CachedScore(1.0, 1, 1)  # a free operation's score: exact, by geometry
@@ -66,6 +81,29 @@ class CnnBackend(Protocol):
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
 
     def expected_score(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
+
+
+@runtime_checkable
+class JointCnnBackend(CnnBackend, Protocol):
+    """A CNN backend that gives P(high) and the expected score from one pass."""
+
+    def prob_high_and_expected(self, problem: PlanningProblem, ops: Sequence[Operation]
+                               ) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@runtime_checkable
+class CalibratedBackend(Protocol):
+    """A CNN backend that carries the score bounds fitted for its own numbers (None: none)."""
+
+    bounds: ScoreBounds | None
+
+
+@runtime_checkable
+class BatchFirstBackend(Protocol):
+    """A CNN backend that says whether a large batch is cheaper than the same operations a few at
+    a time (the search then scores the whole graph first)."""
+
+    batch_first: bool
 
 
 class BudgetSpent(Exception):
@@ -98,8 +136,40 @@ class ScorerStats:
         return dict(self.__dict__)
 
 
+@runtime_checkable
+class ScorerProtocol(Protocol):
+    """What a planner asks of a scorer (module doc); ``Scorer`` implements it."""
+
+    stats: ScorerStats
+    budget: Budget
+    started: float  # the clock of ``budget.max_seconds`` and of a planner's time limit
+
+    @property
+    def bounds(self) -> ScoreBounds | None:
+        """The score bounds fitted for the CNN backend's own numbers, or None (use the CNN's)."""
+
+    @property
+    def batch_first(self) -> bool:
+        """Whether scoring the whole graph in one batch first is cheaper."""
+
+    def is_free(self, problem: PlanningProblem, op: Operation) -> bool: ...
+
+    def scores(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[float]: ...
+
+    def results(self, problem: PlanningProblem, ops: Sequence[Operation]
+                ) -> list[CachedScore]: ...
+
+    def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray: ...
+
+    def expected_scores(self, problem: PlanningProblem, ops: Sequence[Operation]
+                        ) -> np.ndarray: ...
+
+    def prob_high_and_expected(self, problem: PlanningProblem, ops: Sequence[Operation]
+                               ) -> tuple[np.ndarray, np.ndarray]: ...
+
+
 @dataclass
-class Scorer:
+class Scorer(ScorerProtocol):
     """Cached simulator scores and CNN probabilities for planners (see module doc)."""
 
     simulator: SimBackend
@@ -178,48 +248,52 @@ class Scorer:
         return self.stats.sim_run
 
     @property
-    def bounds(self):
+    def bounds(self) -> ScoreBounds | None:
         """The score bounds fitted for the CNN backend's own numbers, where it carries them
-        (``rap.model.inference.cascade.CascadeScorer.bounds``), else None (the CNN's: the shipped
-        ``rap.model.calibration.load()``)."""
-        return getattr(self.cnn, "bounds", None)
+        (``CalibratedBackend``: ``rap.model.inference.cascade.CascadeScorer.bounds``), else None
+        (the CNN's: the shipped ``rap.model.calibration.load()``)."""
+        return self.cnn.bounds if isinstance(self.cnn, CalibratedBackend) else None
 
     @property
     def batch_first(self) -> bool:
         """Whether the CNN backend scores a large batch cheaper than the same operations a few at
-        a time (``rap.model.inference.cascade.CascadeScorer.batch_first``); False when it does
-        not say (the CNN: its cost is per operation)."""
-        return bool(getattr(self.cnn, "batch_first", False))
+        a time (``BatchFirstBackend``: ``rap.model.inference.cascade.CascadeScorer.batch_first``);
+        False when it does not say (the CNN: its cost is per operation)."""
+        return isinstance(self.cnn, BatchFirstBackend) and bool(self.cnn.batch_first)
 
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The CNN's P(high) for each operation, one batch. Raises when no CNN is loaded."""
-        return self._cnn_call("prob_high", problem, ops)
+        return self._cnn_call(lambda cnn, p, asked: cnn.prob_high(p, asked), 1, problem, ops)[0]
 
     def expected_scores(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The CNN's expected score (success rate) for each operation, one batch."""
-        return self._cnn_call("expected_score", problem, ops)
+        return self._cnn_call(lambda cnn, p, asked: cnn.expected_score(p, asked), 1, problem,
+                              ops)[0]
 
     def prob_high_and_expected(self, problem: PlanningProblem, ops: Sequence[Operation]
                                ) -> tuple[np.ndarray, np.ndarray]:
         """Both of the CNN's numbers for each operation, one batch (one rendering and forward
-        pass where the backend offers ``prob_high_and_expected``, else two calls)."""
-        if self.cnn is not None and not hasattr(self.cnn, "prob_high_and_expected"):
+        pass where the backend offers it, ``JointCnnBackend``, else two calls)."""
+        if self.cnn is not None and not isinstance(self.cnn, JointCnnBackend):
             return self.prob_high(problem, ops), self.expected_scores(problem, ops)
-        return self._cnn_call("prob_high_and_expected", problem, ops)
+        return self._cnn_call(lambda cnn, p, asked: cnn.prob_high_and_expected(p, asked), 2,
+                              problem, ops)
 
-    def _cnn_call(self, what: str, problem: PlanningProblem, ops: Sequence[Operation]):
+    def _cnn_call(self, call: Callable, width: int, problem: PlanningProblem,
+                  ops: Sequence[Operation]) -> tuple[np.ndarray, ...]:
+        """``call(cnn, problem, asked)`` on the operations that are not free, its ``width``
+        arrays spread back over ``ops`` (free ones: 1)."""
         if self.cnn is None:
             raise RuntimeError("this scorer has no CNN (load a model for methods rap and search)")
         self._check_time()
         ops = list(ops)
         free = np.array([self.is_free(problem, op) for op in ops], dtype=bool)
         asked = [op for op, f in zip(ops, free) if not f]
-        width = 2 if what == "prob_high_and_expected" else 1
         out = tuple(np.ones(len(ops), dtype=np.float64) for _ in range(width))
         self.stats.free += int(free.sum())
         if asked:  # free operations: 1 by geometry, never shown to the model (module doc)
             t = time.perf_counter()
-            got = getattr(self.cnn, what)(problem, asked)
+            got = call(self.cnn, problem, asked)
             self.stats.cnn_seconds += time.perf_counter() - t
             self.stats.cnn_batches += 1
             self.stats.cnn_ops += len(asked)
@@ -231,4 +305,4 @@ class Scorer:
                                    f"{len(asked)} operations")
             for x, y in zip(out, got):
                 x[~free] = y
-        return out if width == 2 else out[0]
+        return out

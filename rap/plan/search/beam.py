@@ -12,8 +12,9 @@ Ties go to the state made first. An interlock that ends every state raises ``Int
 the smallest dead end seen (a minimal one is named later by ``rap.plan.interlocked``).
 
 ``BeamMode`` is the search's beam mode, a part of ``rap.plan.search.planner.SearchPlanner`` (a
-mixin, with ``rap.plan.search.refine.RefineLoop``): ``_beam`` takes the final beam, lets greedy's
-plan join it, and refines the choice among its sequences (re-ranked by mixed products) with
+mixin, with ``rap.plan.search.refine.RefineLoop``): ``_beam(run)`` (the search's run state,
+``rap.plan.search.run.SearchRun``) takes the final beam, lets greedy's plan (``run.start``) join
+it, keeps its sequences as ``run.beam``, and refines the choice among its sequences (re-ranked by mixed products) with
 simulations; then, with budget left, the plan's runs of one-part steps are re-ordered ``window``
 steps at a time (``rap.plan.search.windows.polish``). ``V`` and the incumbent range over the final
 beam's sequences only (``_beam_value``; the bound's scope ``beam``).
@@ -30,6 +31,7 @@ import math
 
 from rap.plan.graph import Interlocked
 from rap.plan.problem import PlanningProblem
+from rap.plan.search.run import SearchRun
 from rap.plan.search.scores import SearchScores
 from rap.plan.search.windows import polish
 
@@ -76,12 +78,11 @@ def beam_states(problem: PlanningProblem, scores, width: int) -> tuple[list, int
 
 
 class BeamMode:
-    """The beam mode (module doc); mixed into ``SearchPlanner``. ``run``: the search's run state
-    (``rap.plan.search.planner``), whose ``beam`` (the final sequences) is set here for the
-    bound."""
+    """The beam mode (module doc); mixed into ``SearchPlanner``."""
 
-    def _beam(self, problem: PlanningProblem, scores: SearchScores, stats, run, budget: int,
-              first: tuple = ()) -> dict:
+    def _beam(self, run: SearchRun) -> dict:
+        problem, scores, stats = run.problem, run.scores, run.stats
+        first = run.start.sequence if run.start is not None else ()
         beam, rounds = beam_states(problem, scores, self.beam_width)
         stats.update(beam_rounds=rounds, beam_width=self.beam_width)
         if first and all(st[3] != first for st in beam):  # greedy's plan competes (planner doc, 2)
@@ -102,10 +103,8 @@ class BeamMode:
                       for i, seq in enumerate(full))
             return got[0], dict(full[-got[1]])
 
-        plan = self._refine(scores, stats, budget, choose,
-                            lambda _: self._beam_value(run, scores),
-                            incumbent_of)
-        left = budget - stats["refine_simulations"]
+        plan = self._refine(run, choose, lambda _: self._beam_value(run), incumbent_of)
+        left = run.budget - run.refined
         if self.window and left > 0 and len(plan) == len(problem.whole) - 1:
             deadline = (scores.scorer.started + self.time_limit) if self.time_limit else None
             plan = polish(problem, scores, plan, self.window, left, stats, deadline)
@@ -113,6 +112,6 @@ class BeamMode:
         return plan
 
     @staticmethod
-    def _beam_value(run, scores: SearchScores) -> float:
+    def _beam_value(run: SearchRun) -> float:
         """``V`` over the final beam's sequences only (the bound's scope ``beam``)."""
-        return max(math.prod(scores.high(op) for op in seq) for seq in run.beam)
+        return max(math.prod(run.scores.high(op) for op in seq) for seq in run.beam)

@@ -1,8 +1,8 @@
 """The search's exact mode: branch and bound over the whole AND/OR graph of reachable subassemblies.
 
 ``ExactMode`` is a part of ``rap.plan.search.planner.SearchPlanner`` (a mixin, with
-``rap.plan.search.refine.RefineLoop``). ``_exact(graph, scores, whole, stats, budget)`` chooses by
-the optimum's DP (``rap.plan.dp.dp_choice_bounded``: a subassembly's candidates are predicted only
+``rap.plan.search.refine.RefineLoop``). ``_exact(run)`` (the search's run state,
+``rap.plan.search.run.SearchRun``, with its ``graph``) chooses by the optimum's DP (``rap.plan.dp.dp_choice_bounded``: a subassembly's candidates are predicted only
 on its first visit, when they can still matter; with a scorer whose batches are cheaper,
 ``Scorer.batch_first``, the whole graph is predicted in one batch first, the same scores and
 plans) and refines the choice with simulations. An interlocked subassembly is a dead end (value 0);
@@ -26,6 +26,7 @@ import math
 from rap.plan.dp import dp_choice_bounded, max_value
 from rap.plan.graph import Interlocked, dead_end
 from rap.plan.scoring.scorer import BudgetSpent
+from rap.plan.search.run import SearchRun
 from rap.plan.search.scores import SearchScores, incumbent
 
 __all__ = ["ExactMode"]
@@ -34,8 +35,9 @@ __all__ = ["ExactMode"]
 class ExactMode:
     """The exact mode (module doc); mixed into ``SearchPlanner``."""
 
-    def _exact(self, graph, scores: SearchScores, whole, stats, budget: int) -> dict:
-        stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
+    def _exact(self, run: SearchRun) -> dict:
+        graph, scores, whole = run.graph, run.scores, run.whole
+        run.stats.update(subassemblies=len(graph), operations=sum(len(c) for c in graph.values()))
         if scores.scorer.batch_first:  # the default scorer: the whole graph at once is cheaper
             scores.predict([op for c in graph.values() for op in c])
 
@@ -51,31 +53,32 @@ class ExactMode:
             return {sub: op for sub, (_, op) in tree.items()}, best
 
         plan = self._refine(
-            scores, stats, budget, choose,
+            run, choose,
             lambda best: best if self._free_bound(scores) else self._max_high(graph, scores, whole),
             lambda: incumbent(graph, scores, whole))
-        if stats.get("stopped") not in ("budget", "time") or not stats["search_budget"]:
+        if run.stopped not in ("budget", "time") or not run.budget:
             return plan  # settled; or the model alone (no simulation while planning)
-        return self._best_simulated(graph, scores, whole, plan, stats)
+        return self._best_simulated(run, plan)
 
     @staticmethod
-    def _best_simulated(graph, scores: SearchScores, whole, plan: dict, stats: dict) -> dict:
+    def _best_simulated(run: SearchRun, plan: dict) -> dict:
         """When the budget stopped the search (the planner's module doc, 3): the chosen plan's
         steps not yet simulated are simulated (its evaluation would simulate them anyway), and the
         best fully simulated sequence is returned: the plan, or a better one combining the
         subtrees simulated so far (greedy's plan among them). A plan with trusted or unsimulated
         steps (the scorer's own budget spent) is kept unless a simulated sequence beats it."""
+        scores = run.scores
         before = scores.simulations
         try:
             scores.simulate(plan.values())
         except BudgetSpent:
             pass
-        stats["final_simulations"] = scores.simulations - before
-        got, got_plan = incumbent(graph, scores, whole)
+        run.stats["final_simulations"] = scores.simulations - before
+        got, got_plan = incumbent(run.graph, scores, run.whole)
         mine = math.prod(scores.known(op) for op in plan.values())
         if got_plan is None or got <= mine:
             return plan
-        stats.update(final="incumbent", predicted_robustness=got)
+        run.stats.update(final="incumbent", predicted_robustness=got)
         return got_plan
 
     @staticmethod

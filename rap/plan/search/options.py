@@ -127,3 +127,9 @@ class SearchOptions(PlannerOptions):
     max_operations: int = option(
         int, DEFAULT_MAX_OPERATIONS, low=1, code="b", code_name="OPS", cli=False, service=False,
         help="Method {method}: the exact search's budget of operations; beyond it, the beam")
+    alternatives: int = option(
+        int, 0, low=0, code="k", code_name="K", cli=False, service=False,
+        help="Method {method}: besides its plan, SearchPlanner.search returns up to K other "
+             "distinct complete plans it knows, best first by their products of known scores "
+             "(exact: the K best trees of the graph; beam: the final beam's sequences; no "
+             "simulation; 0: none). The plan is the same whatever K")

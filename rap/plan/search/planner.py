@@ -47,29 +47,47 @@ optimum. Each step says where its score came from: ``sim`` or ``cnn``. Variants 
 pay (per-assembly score correction, sequential tests, scoring the whole graph first whatever the
 scorer) live in ``research/variants/``.
 
-``SearchPlanner`` is put together from its parts, one idea a module: this module holds the
-options, the run (``solve``: the search, then the plan's bound) and the choice of mode;
+6. **Alternatives** (option ``alternatives`` = K, default 0: none): ``search`` returns, beside the
+   plan, up to K other distinct complete plans the search knows, best first by their products of
+   known scores (exact: the K best trees of the graph; beam: the final beam's sequences), with no
+   simulation (``rap.plan.search.alternatives``). The plan is the same whatever K.
+
+``SearchPlanner`` is put together from its parts, one idea a module: this module holds the run
+(``search``: the search, then the plan's bound and the alternatives) and the choice of mode;
 ``ExactMode`` (``rap.plan.search.exact``), ``BeamMode`` (``rap.plan.search.beam``) and
 ``RefineLoop`` (``rap.plan.search.refine``) are mixed in, and a variant overrides their methods
-as it would the planner's (``research/variants/eager.py``).
+as it would the planner's (``research/variants/eager.py``). Each call's state is a
+``rap.plan.search.run.SearchRun``, passed to them as an argument (never kept on the planner,
+which concurrent requests may share): decisions read its typed fields, and ``stats`` is output.
 
 Cost: one scorer batch per subassembly visited (exact; 65-71% of the graph's operations on
 held-out assemblies with the CNN), or the whole graph in one batch where the scorer says that is
 cheaper (``Scorer.batch_first``: the default scorer), or one batch per round (beam); the
-simulations asked for; and the bound's DP (``max_value``). No ray, no torch.
+simulations asked for; and the bound's DP (``max_value``); with K alternatives, the K-best DP
+(no simulation; stats ``alternatives``, ``alternatives_seconds``). No ray, no torch.
+
+Example::
+
+    from rap.plan.search.planner import SearchPlanner
+
+    outcome = SearchPlanner(alternatives=4).search(problem, scorer)
+    outcome.plan                    # the PlanResult that solve() returns
+    for alt, r in zip(outcome.alternatives, outcome.estimates):
+        print(len(alt.steps), r)    # other complete plans, best first, with no simulation
 """
 
 from __future__ import annotations
 
-import threading
 import time
-from dataclasses import dataclass
+from typing import Callable
 
 from rap.model.calibration import ScoreBounds, load
+from rap.plan.search.alternatives import SearchOutcome, alternatives
 from rap.plan.search.beam import BeamMode
 from rap.plan.search.exact import ExactMode
 from rap.plan.search.options import SearchOptions
 from rap.plan.search.refine import RefineLoop
+from rap.plan.search.run import SearchRun
 from rap.plan.search.scores import SearchScores, report
 from rap.plan.search.start import greedy_start
 from rap.plan.graph import TooLarge, assembly_order, reachable
@@ -77,21 +95,9 @@ from rap.plan.planners.base import Planner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanResult, PlanStep
 from rap.stats import bonferroni
-from rap.plan.scoring.scorer import Budget, Scorer
+from rap.plan.scoring.scorer import Budget, ScorerProtocol
 
-__all__ = ["SearchPlanner"]
-
-_CURRENT = threading.local()  # .run: the _Run of the search solving in this thread
-
-
-@dataclass
-class _Run:
-    """What one search leaves for its plan's bound: the scores, and the graph (exact) or the
-    final beam's sequences."""
-
-    scores: SearchScores
-    graph: dict | None = None
-    beam: list | None = None
+__all__ = ["SearchPlanner", "SearchOutcome"]
 
 
 class SearchPlanner(ExactMode, BeamMode, RefineLoop, Planner):
@@ -110,76 +116,105 @@ class SearchPlanner(ExactMode, BeamMode, RefineLoop, Planner):
         self.gap = self.gap or None
         self.bounds = bounds
 
-    def solve(self, problem: PlanningProblem, scorer: Scorer) -> PlanResult:
-        """``Planner.solve``, then the plan's bound (module doc, 5), outside the scorer's budget (a
-        request's), as the evaluation is."""
-        _CURRENT.run = None
-        result = super().solve(problem, scorer)
-        run, _CURRENT.run = _CURRENT.run, None
-        if not result.found or run is None:
-            return result
+    def solve(self, problem: PlanningProblem, scorer: ScorerProtocol) -> PlanResult:
+        """``Planner.solve``, then the plan's bound (module doc, 5): ``search(...).plan``."""
+        return self.search(problem, scorer).plan
+
+    def search(self, problem: PlanningProblem, scorer: ScorerProtocol) -> SearchOutcome:
+        """The search's plan and, with the option ``alternatives`` = K, up to K other distinct
+        complete plans it knows (module doc, 6; ``rap.plan.search.alternatives``).
+
+        Parameters: ``problem``, ``scorer`` as for ``solve``. Returns a ``SearchOutcome``:
+        ``plan``, what ``solve`` returns (evaluated, annotated, with its bound), the same for
+        every K; ``alternatives``, found plans (steps in assembly order; a step's score the
+        simulator's where the search knows it, else None), best first by ``estimates``, their
+        products of scores as the search knows them (simulated where known, else the model's
+        expected score); empty when K is 0 or the plan is not found. Raises what ``solve``
+        raises. The plan's bound and the alternatives are computed outside the scorer's budget,
+        as the evaluation is."""
+        run = SearchRun(problem, scorer)
+        result = self._solve(problem, scorer, lambda *_: self._plan(run), run.stats)
+        if not result.found or run.scores is None:
+            return SearchOutcome(result)
+        bound, stats = self._after(scorer, result, "bound_seconds",
+                                   lambda: self._bound(run, result))
+        result = result.with_(bound=bound, stats=stats)
+        if not self.alternatives:
+            return SearchOutcome(result)
+        outcome, stats = self._after(scorer, result, "alternatives_seconds",
+                                     lambda: alternatives(run, result, self.alternatives))
+        stats["alternatives"] = len(outcome.alternatives)
+        return SearchOutcome(result.with_(stats=stats), outcome.alternatives, outcome.estimates)
+
+    @staticmethod
+    def _after(scorer: ScorerProtocol, result: PlanResult, seconds: str, work: Callable):
+        """``(work(), stats)``: ``work`` run after the search, outside the scorer's budget (a
+        request's) as the evaluation is; ``stats``, the result's with the scorer's counters
+        during ``work`` added (its CNN batches count too) and its time as ``seconds``."""
         t = time.perf_counter()
         before = scorer.stats.to_dict()
         saved, scorer.budget = scorer.budget, Budget()  # like the evaluation: not the search's
         try:
-            bound = self._bound(run, result)
+            out = work()
         finally:
             scorer.budget = saved
         stats = dict(result.stats)
-        for k, v in scorer.stats.to_dict().items():  # the bound's CNN batches count too
+        for k, v in scorer.stats.to_dict().items():
             stats[k] = stats.get(k, 0) + v - before[k]
-        stats["bound_seconds"] = time.perf_counter() - t
-        return result.with_(bound=bound, stats=stats)
+        stats[seconds] = time.perf_counter() - t
+        return out, stats
 
     def _search(self, problem, scorer, stats):
+        """``Planner._search``: the steps, with a run state of the call's own."""
+        return self._plan(SearchRun(problem, scorer, stats))
+
+    def _plan(self, run: SearchRun) -> list[PlanStep]:
+        """The search (module doc, 1-4) on ``run``: its steps in assembly order."""
+        problem, scorer, stats = run.problem, run.scorer, run.stats
         whole = problem.whole
         # the bounds fitted for the scorer's own numbers (the default scorer carries its own),
         # else the shipped calibration of the CNN; chosen per solve, never kept
         bounds = self.bounds if self.bounds is not None else (scorer.bounds or load())
         raise_ = self.simulations > 0  # raised scores choose what to simulate: none to choose
-        scores = SearchScores(problem, scorer, bounds,
-                              bonferroni(self.confidence, len(whole) - 1),
-                              self.optimism if raise_ else 0.0, self.upper if raise_ else 0.0,
-                              self.trust)
-        graph = None
+        run.scores = scores = SearchScores(problem, scorer, bounds,
+                                           bonferroni(self.confidence, len(whole) - 1),
+                                           self.optimism if raise_ else 0.0,
+                                           self.upper if raise_ else 0.0, self.trust)
         if len(whole) < self.beam_from:  # else the walk, 1-4 s, would only find it too large
             try:
-                graph = reachable(problem, self.max_operations)
+                run.graph = reachable(problem, self.max_operations)
             except TooLarge:
                 pass
-        run = _Run(scores, graph)
         # greedy's plan first (module doc, 1-2): from ``greedy_from`` parts, and always for the beam
-        start = (greedy_start(problem, scorer, scores, stats, self.time_limit)
-                 if graph is None or len(whole) >= self.greedy_from else None)
-        budget = self._budget(start)
-        if graph is not None:
+        if run.graph is None or len(whole) >= self.greedy_from:
+            run.start = greedy_start(problem, scorer, scores, stats, self.time_limit)
+        run.budget = self._budget(run.start)
+        if run.graph is not None:
             stats["search"] = "exact"
-            trees = self._exact(graph, scores, whole, stats, budget)
+            run.plan = self._exact(run)
         else:
             stats["search"] = "beam"
-            trees = self._beam(problem, scores, stats, run, budget, start.sequence)
-        _CURRENT.run = run
+            run.plan = self._beam(run)
         steps = {}
-        for sub, op in trees.items():
+        for sub, op in run.plan.items():
             k = scores.key(op)
             steps[sub] = PlanStep.of(op, "sim" if k in scores.simulated else "cnn",
                                      score=scores.simulated.get(k),
                                      confidence=scores.predicted.get(k))
         # the refine loop's simulations (greedy's own are ``greedy_simulations``)
-        stats["search_simulations"] = scores.simulations - stats.get("greedy_known", 0)
+        stats["search_simulations"] = scores.simulations - (run.start.known if run.start else 0)
         stats["predicted_operations"] = len(scores.predicted)
         return assembly_order(steps, whole)
 
-    def _bound(self, run: _Run, result: PlanResult) -> dict:
+    def _bound(self, run: SearchRun, result: PlanResult) -> dict:
         """The plan's ``bound`` block with its own simulated scores counted (module doc, 5)."""
         scores = run.scores
         scores.add_simulated([s.to_operation() for s in result.steps],
                              [s.score for s in result.steps])
         if run.graph is not None:
-            value, scope = self._max_high(run.graph, scores, scores.problem.whole), "exact"
+            value, scope = self._max_high(run.graph, scores, run.whole), "exact"
         else:
-            value = self._beam_value(run, scores)
-            scope = "beam"
+            value, scope = self._beam_value(run), "beam"
         return report(result.robustness, value, self.confidence, scope, scores.bounds,
                       len(result.steps), scores.level)
 

@@ -2,15 +2,17 @@
 
 ``RefineLoop`` is a part of ``rap.plan.search.planner.SearchPlanner`` (a mixin: it reads the
 planner's options ``simulations``, ``improve``, ``time_limit``, ``gap`` and ``bound_round``).
-``_refine(scores, stats, budget, choose, bound, incumbent_of)`` takes a mode's three callbacks: the
+``_refine(run, choose, bound, incumbent_of)`` takes the search's run state
+(``rap.plan.search.run.SearchRun``: its scores, its ``budget``) and a mode's three callbacks: the
 choice by the current scores, the bound ``V`` on the optimum, and the best fully simulated
 sequence so far (the incumbent ``I``). Each round it simulates the choice's operations neither
 simulated nor trusted and chooses again, until the choice is settled, ``I`` reaches ``V`` (or
 ``(1 - gap) V``), or the budget (or ``time_limit``) is spent; then, with raised scores still in
 the choice, it chooses once more by what is known. Phase 2: a choice settled short of the gap goes
 on by the bounds themselves until within it, and never returns a worse plan than the settled
-choice. The planner's module doc (3-4) says why; the stats it writes are named there
-(``stopped``, ``search_budget``, ``refine_simulations``, ``phase1_simulations``,
+choice. The planner's module doc (3-4) says why. What it decides is kept on the run (``refined``,
+the simulations it ran; ``stopped``; ``phase1``), and what it reports goes to the run's stats,
+never read back (``stopped``, ``search_budget``, ``refine_simulations``, ``phase1_simulations``,
 ``phase2_simulations``, ``search_bound``, ``stopped_after``, ``predicted_robustness``).
 
 Cost: the simulations it asks for, at most ``budget`` (``bound_round`` a round while choosing by
@@ -25,6 +27,7 @@ import time
 
 from rap.plan.dp import SLACK
 from rap.plan.scoring.scorer import BudgetSpent
+from rap.plan.search.run import SearchRun
 from rap.plan.search.scores import SearchScores
 from rap.plan.search.start import Start
 
@@ -75,53 +78,54 @@ class RefineLoop:
             return False
         return self.gap is not None or self._free_bound(scores)
 
-    def _settled(self, best: float, value: float, spent: int, stats: dict) -> bool:
+    def _settled(self, run: SearchRun, best: float, value: float, spent: int) -> bool:
         """Whether the incumbent ``best`` stops the search against the bound ``value``."""
         if best <= 0.0:
             return False
         if best >= value * SLACK:  # nothing left can beat it (the stronger claim first)
-            stats["stopped"] = "bound"
+            run.stop("bound")
         elif self.gap is not None and best >= (1.0 - self.gap) * value:
-            stats.update(stopped="gap", gap=self.gap)
+            run.stop("gap", gap=self.gap)
         else:
             return False
-        stats.update(search_bound=value, stopped_after=spent, predicted_robustness=best)
+        run.stats.update(search_bound=value, stopped_after=spent, predicted_robustness=best)
         return True
 
-    def _second_phase(self, scores: SearchScores, choice: dict, spent: int, budget: int,
-                      stats: dict):
+    def _second_phase(self, run: SearchRun, choice: dict, spent: int):
         """When the choice is settled short of ``gap`` with budget left: phase 2 (the planner's
         module doc, 4) starts, choosing by the bounds themselves; returns what it must never fall
         below (the settled choice and its robustness by known scores), or None when it does not
         start."""
-        if not (self.gap is not None and not self._spent(scores, spent, budget)):
+        scores = run.scores
+        if not (self.gap is not None and not self._spent(scores, spent, run.budget)):
             return None
         scores.by_bounds()
-        stats.update(phase1_simulations=spent, gap=self.gap)
+        run.phase1 = spent
+        run.stats.update(phase1_simulations=spent, gap=self.gap)
         return choice, math.prod(scores.known(op) for op in choice.values())
 
     @staticmethod
-    def _kept(scores: SearchScores, plan: dict | None, floor: tuple, spent: int,
-              stats: dict) -> dict:
+    def _kept(run: SearchRun, plan: dict | None, floor: tuple, spent: int) -> dict:
         """Phase 2's plan: ``plan`` (the incumbent, fully simulated) unless phase 1's settled
         choice (``floor``) is better by known scores (only when it has trusted operations)."""
+        scores = run.scores
         r = 0.0 if plan is None else math.prod(scores.known(op) for op in plan.values())
         if r < floor[1]:
             plan, r = floor
-        stats.update(phase2_simulations=spent - stats["phase1_simulations"],
-                     predicted_robustness=r)
+        run.stats.update(phase2_simulations=spent - run.phase1, predicted_robustness=r)
         return plan
 
-    def _refine(self, scores: SearchScores, stats: dict, budget: int, choose, bound,
-                incumbent_of) -> dict:
+    def _refine(self, run: SearchRun, choose, bound, incumbent_of) -> dict:
         """Simulate where it decides until the choice settles, the bound stops it or the budget
         is spent (the planner's module doc, 3-4); returns the plan (subassembly -> operation).
-        ``budget``: the simulations it may spend (``_budget``).
+        ``run.budget``: the simulations it may spend (``_budget``); ``run.refined``: those it ran.
 
         ``choose()``: ``(choice, value)``, the choice by the current scores and its DP value (or
         None); ``bound(value)``: ``V``; ``incumbent_of()``: ``(robustness, plan or None)`` of the
         best fully simulated sequence."""
-        spent = 0
+        scores, stats, budget = run.scores, run.stats, run.budget
+        spent = 0  # the loop's count: the budget itself once the scorer's own budget is spent
+        run.refined = 0
         stats.update(search_budget=budget, refine_simulations=0)
         # phase 2 (the planner's module doc, 4): phase 1's settled choice and its robustness
         floor = None
@@ -130,25 +134,24 @@ class RefineLoop:
             if self._watching(scores):
                 value = bound(best)
                 got, got_plan = incumbent_of()
-                if self._settled(got, value, spent, stats):
-                    return got_plan if floor is None else self._kept(scores, got_plan, floor,
-                                                                     spent, stats)
+                if self._settled(run, got, value, spent):
+                    return got_plan if floor is None else self._kept(run, got_plan, floor, spent)
             todo = self._to_simulate(scores, choice.values())
             out = self._spent(scores, spent, budget)
             why = "budget" if spent >= budget else "time"
             if floor is not None and (not todo or out):
-                stats.update(stopped=why, search_bound=value, stopped_after=spent)
-                return self._kept(scores, got_plan, floor, spent, stats)
+                run.stop(why, search_bound=value, stopped_after=spent)
+                return self._kept(run, got_plan, floor, spent)
             if todo and out and scores.raised:
                 # budget spent with raised scores still in the choice: choose by what is known
                 scores.lower()
                 continue
-            if not todo and (floor := self._second_phase(scores, choice, spent, budget, stats)):
+            if not todo and (floor := self._second_phase(run, choice, spent)):
                 continue
             if not todo or out:
                 stats["predicted_robustness"] = math.prod(scores.known(op)
                                                           for op in choice.values())
-                stats["stopped"] = why if todo else "settled"
+                run.stop(why if todo else "settled")
                 return choice
             todo = self._batch(scores, todo, spent, budget)
             try:
@@ -157,4 +160,5 @@ class RefineLoop:
                 spent = budget
                 continue
             spent += len(todo)
+            run.refined = spent
             stats["refine_simulations"] = spent

@@ -41,7 +41,7 @@ from rap.model.calibration import ScoreBounds
 from rap.plan.dp import dp_choice_bounded
 from rap.plan.graph import Graph
 from rap.plan.problem import PlanningProblem
-from rap.plan.scoring.scorer import Scorer
+from rap.plan.scoring.scorer import ScorerProtocol
 
 __all__ = ["SearchScores", "incumbent", "report"]
 
@@ -52,7 +52,7 @@ class SearchScores:
     bounds (``bonferroni(confidence, steps)``)."""
 
     problem: PlanningProblem
-    scorer: Scorer
+    scorer: ScorerProtocol
     bounds: ScoreBounds = field(default_factory=ScoreBounds.trivial)
     level: float = 0.95
     optimism: float = 0.0
@@ -84,13 +84,13 @@ class SearchScores:
         return k
 
     def scores(self, view: str, s: frozenset, ops) -> list:
-        """``[getattr(self, view)(op) for op in ops]`` for ``ops``, the candidates of ``s`` (the
-        same list each time), memoised until one of them is predicted or simulated (module doc,
-        ``view``: ``of``, ``high`` or ``simulated_or_0``)."""
+        """``[self.of(op) for op in ops]`` (or ``high``, ``simulated_or_0``: the ``view``) for
+        ``ops``, the candidates of ``s`` (the same list each time), memoised until one of them is
+        predicted or simulated (module doc)."""
         cache = self._lists[view]
         out = cache.get(s)
         if out is None:
-            f = getattr(self, view)
+            f = {"of": self.of, "high": self.high, "simulated_or_0": self.simulated_or_0}[view]
             out = cache[s] = [f(op) for op in ops]
         return out
 

@@ -27,7 +27,7 @@ from rap.plan.dp import argmax_first
 from rap.plan.planners.greedy import SimPlanner
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.result import PlanStep
-from rap.plan.scoring.scorer import BudgetSpent, Scorer
+from rap.plan.scoring.scorer import BudgetSpent, ScorerProtocol
 from rap.plan.search.options import GREEDY_SHARE
 
 __all__ = ["Start", "greedy_start"]
@@ -38,14 +38,17 @@ class Start:
     """Greedy's first plan for the search: ``sequence``, its ``(subassembly, operation)`` pairs
     (``()``: none); ``simulations``, what greedy simulated; ``complete``, whether every step was
     chosen by simulation (not cut by the time limit), so that its simulations can set the
-    search's budget (``rap.plan.search.planner``, module doc, 3)."""
+    search's budget (``rap.plan.search.planner``, module doc, 3); ``known``, the simulated scores
+    the search knows after it (free operations' are not), so that the search counts only its own
+    simulations."""
 
     sequence: tuple = ()
     simulations: int = 0
     complete: bool = False
+    known: int = 0
 
 
-def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
+def greedy_start(problem: PlanningProblem, scorer: ScorerProtocol, scores, stats: dict,
                  time_limit: float = 0.0) -> Start:
     """Greedy's first plan (module doc); its figures also go to ``stats``."""
     t = time.perf_counter()
@@ -77,11 +80,13 @@ def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
                  for c in problem.candidates(op.moving | op.fixed)]
         known_scores = scorer.scores(problem, known)  # score cache hits
     except (BudgetSpent, Interlocked):  # a budget, or a dead end: the search decides
-        stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_robustness=None)
-        return Start(simulations=stats["greedy_simulations"])
+        simulations = scorer.stats.sim_run - before
+        stats.update(greedy_simulations=simulations, greedy_robustness=None)
+        return Start(simulations=simulations)
     finally:
         scorer.budget = saved
-    stats.update(greedy_simulations=scorer.stats.sim_run - before, greedy_steps=len(ops),
+    simulations = scorer.stats.sim_run - before
+    stats.update(greedy_simulations=simulations, greedy_steps=len(ops),
                  greedy_seconds=time.perf_counter() - t,
                  greedy_robustness=(None if finished else math.prod(s.score for s in steps)))
     if finished:
@@ -90,5 +95,5 @@ def greedy_start(problem: PlanningProblem, scorer: Scorer, scores, stats: dict,
     # the model's steps are predicted for the search (one batch; simulated ones need none)
     scores.predict([op for op in ops if not scores.is_simulated(op)])
     stats["greedy_known"] = scores.simulations
-    return Start(tuple((op.moving | op.fixed, op) for op in ops), stats["greedy_simulations"],
-                 complete=not finished)
+    return Start(tuple((op.moving | op.fixed, op) for op in ops), simulations,
+                 complete=not finished, known=scores.simulations)

@@ -53,3 +53,47 @@ def test_free_operations_are_never_shown_to_the_model():
     assert list(scorer.expected_scores(problem, only_free)) == [1.0] * len(only_free)
     # TableCnn answers both numbers in two calls; the free-only question called it no more
     assert scorer.stats.cnn_batches == 2 and cnn.scored == int((~free).sum())
+
+
+class _FullCnn(TableCnn):
+    """A stand-in that declares every capability a CNN backend may offer."""
+
+    batch_first = True
+
+    def __init__(self, fn, bounds):
+        super().__init__(fn)
+        self.bounds = bounds
+        self.joint = 0
+
+    def prob_high_and_expected(self, problem, ops):
+        self.joint += 1
+        return self.prob_high(problem, ops), self.expected_score(problem, ops)
+
+
+def test_the_scorer_protocol_is_declared_and_implemented():
+    from rap.model.inference.cascade import CascadeScorer
+    from rap.model.inference.operations import OperationPredictor
+    from rap.plan.scoring.scorer import JointCnnBackend, ScorerProtocol
+
+    assert isinstance(Scorer(HashSim()), ScorerProtocol)
+    assert not isinstance(HashSim(), ScorerProtocol)
+    # the shipped CNN backends give both numbers from one pass
+    assert issubclass(OperationPredictor, JointCnnBackend)
+    assert issubclass(CascadeScorer, JointCnnBackend)
+
+
+def test_a_backends_capabilities_are_read_by_their_declared_protocols():
+    problem, ops = _problem()
+    asked = int(sum(not problem.is_free(op) for op in ops))
+    plain = Scorer(HashSim(), TableCnn(lambda op: 0.25))  # prob_high and expected_score only
+    assert plain.bounds is None and plain.batch_first is False
+    plain.prob_high_and_expected(problem, ops)
+    assert plain.cnn.batches == [asked] and plain.stats.cnn_batches == 2  # two calls
+    sentinel = object()
+    full = Scorer(HashSim(), _FullCnn(lambda op: 0.25, sentinel))
+    assert full.bounds is sentinel and full.batch_first is True
+    p, e = full.prob_high_and_expected(problem, ops)
+    assert full.cnn.joint == 1 and full.stats.cnn_batches == 1  # one pass
+    assert (p == e).all() and sorted(set(p)) == [0.25, 1.0]
+    no_cnn = Scorer(HashSim())
+    assert no_cnn.bounds is None and no_cnn.batch_first is False

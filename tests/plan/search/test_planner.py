@@ -202,7 +202,7 @@ def test_the_beam_never_returns_a_plan_worse_than_simulator_only_greedy():
     beam (it predicts the opposite of the simulator) cannot make the search worse than greedy;
     and the case matters: the misled beam alone is worse than greedy on some assemblies."""
     from rap.plan.planners.greedy import SimPlanner
-    from rap.plan.search.planner import _Run
+    from rap.plan.search.run import SearchRun
     from rap.plan.search.scores import SearchScores
 
     liar = TableCnn(lambda op: 0.5, score_fn=lambda op: 1.0 - hash_score(op))
@@ -219,8 +219,7 @@ def test_the_beam_never_returns_a_plan_worse_than_simulator_only_greedy():
             assert found.stats["greedy_robustness"] == pytest.approx(greedy.robustness)
         alone = SearchPlanner(max_operations=1, beam_width=2, simulations=0, upper=0.0)
         s = scorer(liar)
-        sc = SearchScores(problem, s)
-        trees = alone._beam(problem, sc, {}, _Run(sc), 0)  # no greedy plan in it
+        trees = alone._beam(SearchRun(problem, s, scores=SearchScores(problem, s)))  # no greedy
         worse_alone.append(float(np.prod(s.scores(problem, list(trees.values()))))
                            < greedy.robustness)
     assert any(worse_alone), worse_alone

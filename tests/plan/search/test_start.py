@@ -96,9 +96,9 @@ def test_the_bound_is_computed_outside_the_callers_spent_budget():
     problem = PlanningProblem(six("grid"), PARAMS)
 
     class LateBudget(SearchPlanner):
-        def _search(self, problem, scorer, stats):
-            steps = super()._search(problem, scorer, stats)
-            scorer.budget = Budget(max_seconds=0.0)  # spent from here on
+        def _plan(self, run):
+            steps = super()._plan(run)
+            run.scorer.budget = Budget(max_seconds=0.0)  # spent from here on
             return steps
 
     s = scorer(TableCnn(lambda op: 0.5, score_fn=hash_score))
