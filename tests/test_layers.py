@@ -20,7 +20,7 @@ LAYERS = {
     "rap.assembly": 1, "rap.assembly_reader": 1, "rap.operation": 1,
     "rap.geometry": 2, "rap.io": 3, "rap.enumerate": 3,
     "rap.sim": 4, "rap.render": 4, "rap.dataset": 4,
-    "rap.model": 5, "rap.labelling": 5, "rap.plan": 6, "rap.experiment": 7, "rap.robot": 7,
+    "rap.model": 5, "rap.labelling": 5, "rap.execution": 5, "rap.plan": 6, "rap.experiment": 7, "rap.robot": 7,
     "rap.farm": 8, "rap.serve": 9, "rap.commands": 10, "rap.cli": 11,
     "rap.files": 0, "rap.client": 10, "rap.cad": 3,
 }

@@ -142,6 +142,8 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                       f"{len(result.steps)}; expected attempts with retries: "
                       + (f"{tries:.2f}" if math.isfinite(tries) else "unbounded (a step scores 0)")
                       + (f"; weakest: step {weak}" if weak else ""))
+    for text in sequence_lines(result):
+        console.print(text)
     if st.get("constraints"):
         from rap.plan.cell.constraints import CellConstraints
 
@@ -185,3 +187,32 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
         console.print(f"insertion = the direction the moving parts travel to their place "
                       f"(removal = -insertion); poses and travel in {units}: see --out / --csv",
                       style="dim")
+
+
+def sequence_lines(result) -> list[str]:
+    """What the rollouts measured (plan format 3): the sequence success beside R, how the plan
+    was chosen, and the steps whose tolerance is below the cell's error budget."""
+    seq = result.sequence
+    if seq is None:
+        return []
+    errs = seq.errors
+    lines = [f"{seq.text()} under the cell's errors (grasp +-{errs.get('grasp_across_mm', 0):g} "
+             f"mm across, +-{errs.get('grasp_along_mm', 0):g} along, "
+             f"+-{errs.get('grasp_angle_deg', 0):g} deg; arm {errs.get('repeatability_mm', 0):g} "
+             f"mm), each step from where the earlier ones left the parts"]
+    if len(seq.candidates) > 1:
+        others = [c for c in seq.candidates if not c["chosen"]]
+        best = max(c["rate"] for c in others)
+        lines.append(f"chosen by sequence success among {len(seq.candidates)} plans of the search "
+                     + ("(its best product)" if seq.candidates[0]["chosen"] else
+                        f"(the best product measured {seq.candidates[0]['rate']:.3f})")
+                     + f"; the best other measured {best:.3f}")
+    flagged = [i for i, s in enumerate(result.steps, 1)
+               if s.execution is not None and s.execution.below_budget]
+    if flagged:
+        lines.append(f"tolerance below the cell's error budget "
+                     f"(+-{errs.get('grasp_across_mm', 0) + errs.get('repeatability_mm', 0):g} mm "
+                     f"across): step " + ", ".join(
+                         f"{i} ({result.steps[i - 1].execution.tolerance_mm:g} mm)"
+                         for i in flagged))
+    return lines

@@ -146,6 +146,13 @@ def plan_command(
     gravity: str = GRAVITY, friction: float = FRICTION, layers: bool = LAYERS,
     workers: int = typer.Option(None, "--workers", min=1, help="Simulation processes here, or "
                                 "actors with --address [default: all CPUs]."),
+    cell_file: Path = typer.Option(None, "--cell", help="Robot cell TOML: its [errors] and unit "
+                                   "for the rollouts [default: the shipped cell]."),
+    rollouts: bool = typer.Option(True, "--rollouts/--no-rollouts", help="Measure the plan's "
+                                  "sequence success by rollouts under the cell's errors, and "
+                                  "choose among the search's best plans by it."),
+    candidates: int = typer.Option(3, "--candidates", min=0, max=20, help="Search: plans besides "
+                                   "its best that the rollouts compare (0: the best only)."),
 ):
     """Plan a robust assembly sequence and print it (step, parts, direction, score, source)."""
     from rap.commands._console import console as make_console
@@ -170,6 +177,7 @@ def plan_command(
     if server is not None:
         _check_server_settings(settings, options)
     settings["constraints"] = cell
+    settings["execution"] = (cell_file, candidates) if rollouts else None
     # a transient progress line on stderr (a terminal only) from here to the table
     with activity(f"planning {Path(assembly).name}", err) as progress:
         progress.update("reading the assembly")
@@ -271,7 +279,8 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
         return _plan_here(asm, method, params, root_seed, space, model_path, cache_path,
                           _local_workers(workers), err, options,
                           progress=console if hasattr(console, "scorer_progress") else None,
-                          constraints=settings.get("constraints")), False
+                          constraints=settings.get("constraints"),
+                          execution=settings.get("execution")), False
     import rap.serve.planning as service
 
     if model_path is not None:
@@ -316,9 +325,10 @@ def _load_cnn(model_path: str):
 
 
 def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, workers, err,
-               options: dict | None = None, constraints=None, progress=None):
+               options: dict | None = None, constraints=None, progress=None, execution=None):
     """Plan in this process; simulation batches over ``workers`` forked processes; ``options``:
-    ``make_planner``'s (None: the default); ``progress``: an ``Activity`` told what happens."""
+    ``make_planner``'s (None: the default); ``progress``: an ``Activity`` told what happens;
+    ``execution``: ``(cell file, candidates)``, the rollouts (``rap.commands._rollouts``)."""
     from rap.commands._progress import activity
     from rap.plan.scoring.cache import ScoreCache
     from rap.plan.methods import make_planner
@@ -326,6 +336,7 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
     from rap.plan.problem import PlanningProblem
     from rap.plan import plan
     from rap.plan.scoring.local_simulator import LocalSimulator
+    from rap.commands._rollouts import execution_options
 
     # simulation workers first: they load the simulator while this process loads the model,
     # renders and scores (see LocalSimulator's prestart)
@@ -342,12 +353,13 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
             if sim.prestarted:
                 cnn.cores_busy = sim.loading
         cache_obj = ScoreCache(cache_path)
-        planner = make_planner(method, **(options or {}))  # a bad option fails before the NDBG
+        ex_options, options = execution_options(execution, asm, method, options or {})
+        planner = make_planner(method, **options)  # a bad option fails before the NDBG
         progress.update("building the NDBG")
         problem.candidates(problem.whole)  # builds it (once, kept by the problem)
         progress.update("NDBG built; planning")
         result = plan(problem, planner, model=cnn, simulator=sim, cache=cache_obj,
-                      on_progress=progress.scorer_progress)
+                      on_progress=progress.scorer_progress, execution=ex_options)
     finally:
         sim.close()
         if cache_obj is not None:  # also when interrupted: a rerun starts from the scores found

@@ -87,10 +87,11 @@ def tally(steps: int, outcomes: Sequence[ChunkOutcome]) -> tuple[int, list[int],
 
 def measure(assembly: Assembly, plan: RolloutPlan, runner: RolloutRunner, root_seed: int, *,
             half_width: float = HALF_WIDTH, max_rollouts: int = WAVES[-1],
-            rollouts: int | None = None,
+            rollouts: int | None = None, prior: Sequence[ChunkOutcome] = (),
             on_progress: Callable[[int, int], None] | None = None) -> SequenceMeasure:
     """Sequence success of ``plan`` (module doc). ``rollouts``: exactly that many instead (no
-    stopping rule)."""
+    stopping rule). ``prior``: the outcomes of rollouts ``0 .. m - 1`` already run on this root
+    seed (a whole number of waves' chunks); the waves go on from there."""
     t0 = time.perf_counter()
     if rollouts is not None:
         waves = (int(rollouts),)
@@ -98,9 +99,13 @@ def measure(assembly: Assembly, plan: RolloutPlan, runner: RolloutRunner, root_s
         waves = tuple(w for w in WAVES if w < max_rollouts) + (int(max_rollouts),)
     if waves[0] < 1:
         raise ValueError("at least one rollout")
-    outcomes: list[ChunkOutcome] = []
-    done = 0
-    for target in waves:
+    outcomes: list[ChunkOutcome] = list(prior)
+    done = sum(len(o.failed_at) for o in outcomes)
+    if done:
+        wins, _, _, runs = tally(len(plan.steps), outcomes)
+        if rate(wins, runs).half_width <= half_width or done >= waves[-1]:
+            waves = ()
+    for target in (w for w in waves if w > done):
         outcomes += runner.run_rollouts(assembly, plan, root_seed, chunks(done, target))
         done = target
         if on_progress is not None:

@@ -31,7 +31,8 @@ __all__ = ["plan"]
 
 def plan(assembly, method="search", *, model=None, constraints=None,
          seed: int = DEFAULT_ROOT_SEED, params=None, space: str = "online", simulator=None,
-         cache=None, scorer=None, on_progress=None, **options) -> "PlanResult":
+         cache=None, scorer=None, on_progress=None, execution=None, rollouts=None,
+         **options) -> "PlanResult":
     """Plan a robust assembly sequence.
 
     Parameters
@@ -51,6 +52,13 @@ def plan(assembly, method="search", *, model=None, constraints=None,
     scorer : a ready ``rap.plan.scoring.scorer.Scorer`` instead of ``model``, ``simulator`` and
         ``cache`` (the planning service passes one per request).
     on_progress : called with the scorer's counters before and after each batch.
+    execution : ``rap.plan.execution.ExecutionOptions`` (None: none): the found plan's sequence
+        success under the cell's errors, each step's success once reached, clearance and
+        tolerance; with a planner that offers alternatives (the search's option
+        ``alternatives``), the plan chosen among them by measured sequence success
+        (``rap.plan.execution``).
+    rollouts : a ``rap.execution.sequence.RolloutRunner`` (None: the simulator backend when it
+        runs rollouts, else this process).
     **options : the method's options (``rap-farm plan --help``; e.g. ``simulations=0``).
 
     Returns
@@ -95,7 +103,7 @@ def plan(assembly, method="search", *, model=None, constraints=None,
         problem = PlanningProblem(assembly, params or SimParams(), seed, space,
                                   constraints=constraints or CellConstraints())
     if scorer is not None:
-        return planner.solve(problem, scorer)
+        return _solve(planner, problem, scorer, execution, rollouts or simulator)
     needs = planner.options.needs_model
     if needs and (model is None or isinstance(model, (str, Path))):
         from rap.model.inference.operations import SHIPPED_MODEL, OperationPredictor
@@ -111,9 +119,41 @@ def plan(assembly, method="search", *, model=None, constraints=None,
 
         simulator = LocalSimulator(processes=1)
     try:
-        return planner.solve(problem, Scorer(simulator, model if needs else None,
-                                             cache if cache is not None else ScoreCache(),
-                                             on_progress=on_progress))
+        return _solve(planner, problem, Scorer(simulator, model if needs else None,
+                                               cache if cache is not None else ScoreCache(),
+                                               on_progress=on_progress),
+                      execution, rollouts or simulator)
     finally:
         if own:
             simulator.close()
+
+
+def _solve(planner, problem, scorer, execution, runner) -> "PlanResult":
+    """``planner.solve``; with ``execution``, the plan measured (and chosen among the planner's
+    alternatives) by rollouts (``rap.plan.execution``)."""
+    if execution is None:
+        return planner.solve(problem, scorer)
+    from rap.plan.execution import execute_report
+    from rap.plan.search.planner import SearchPlanner
+
+    if isinstance(planner, SearchPlanner) and planner.alternatives:  # it offers alternatives
+        outcome = planner.search(problem, scorer)
+        result, candidates = outcome.plan, outcome.alternatives
+    else:
+        result, candidates = planner.solve(problem, scorer), ()
+    if not hasattr(runner, "run_rollouts"):
+        runner = None
+
+    def finish(alt):
+        from dataclasses import replace
+
+        import math
+
+        from rap.plan.planners.base import evaluate_steps
+        from rap.plan.report.poses import annotate_plan
+
+        steps = tuple(evaluate_steps(problem, scorer, alt.steps))
+        return annotate_plan(replace(alt, steps=steps, robustness=math.prod(
+            s.score for s in steps)), problem)
+
+    return execute_report(problem, result, runner, execution, candidates, finish=finish)

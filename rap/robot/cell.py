@@ -20,10 +20,11 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 from rap.errors import InputError
+from rap.execution.error_model import DEFAULT_ERRORS, ErrorModel
 from rap.robot.arms.registry import ARMS as ARM_REGISTRY
 
 __all__ = ["Cell", "CellError", "ArmSection", "AssemblySection", "TableSection",
-           "GripperSection", "TraySection", "MotionSection", "load_cell", "cell_from_toml",
+           "GripperSection", "TraySection", "MotionSection", "ErrorsSection", "load_cell", "cell_from_toml",
            "parse_cell", "DEFAULT_CELL_FILE", "ARMS", "PLANES", "UNIT_METRES", "with_"]
 
 DEFAULT_CELL_FILE = Path(__file__).with_name("default_cell.toml")
@@ -92,6 +93,18 @@ class MotionSection:
 
 
 @dataclass(frozen=True)
+class ErrorsSection:
+    """The cell's error model (``rap.execution.error_model``): the grasp's error across and along
+    the insertion and its angle, and the arm's repeatability (None: the arm's figure from the
+    registry)."""
+
+    grasp_across_mm: float = DEFAULT_ERRORS.grasp_across_mm
+    grasp_along_mm: float = DEFAULT_ERRORS.grasp_along_mm
+    grasp_angle_deg: float = DEFAULT_ERRORS.grasp_angle_deg
+    repeatability_mm: float | None = None
+
+
+@dataclass(frozen=True)
 class Cell:
     """A robot cell (module doc); ``Cell()`` is the shipped one. ``source``: the file it came from
     (``"default cell"`` for the shipped one), used in messages."""
@@ -102,6 +115,7 @@ class Cell:
     gripper: GripperSection = field(default_factory=GripperSection)
     tray: TraySection = field(default_factory=TraySection)
     motion: MotionSection = field(default_factory=MotionSection)
+    errors: ErrorsSection = field(default_factory=ErrorsSection)
     source: str = "default cell"
 
     def to_dict(self) -> dict:
@@ -115,6 +129,15 @@ class Cell:
                                     list(v) if isinstance(v := getattr(sec, g.name), tuple)
                                     else v) for g in fields(sec)}
         return out
+
+    def error_model(self) -> ErrorModel:
+        """The cell's ``[errors]`` as an ``ErrorModel``: the arm's repeatability (the maker's
+        figure, ``rap.robot.arms.registry``) unless the cell sets its own."""
+        e = self.errors
+        rep = e.repeatability_mm
+        if rep is None:
+            rep = round(ARM_REGISTRY[self.robot.arm].repeatability_m * 1000.0, 9)
+        return ErrorModel(e.grasp_across_mm, e.grasp_along_mm, e.grasp_angle_deg, rep)
 
     def unit_metres(self, units: str) -> float:
         """Metres per unit of an assembly in ``units`` (``assembly.unit_m`` for unknown ones)."""
@@ -168,6 +191,8 @@ _CHECKS = {
     "columns": lambda w, v: _integer(w, v, 0, 1000),
     "samples_per_segment": lambda w, v: _integer(w, v, 2, 1000),
     "yaw_deg": _number, "height_m": _number,
+    **{k: (lambda w, v: _number(w, v, at_least=0.0))
+       for k in ("grasp_across_mm", "grasp_along_mm", "grasp_angle_deg", "repeatability_mm")},
 }
 
 

@@ -195,3 +195,27 @@ def test_batches_grow_with_the_pool_so_the_task_rate_stays_bounded(ray_local):
     assert TASK_RATE == 100.0
     assert sizes == {1: 10, 2: 10, 100: 10, 500: 50, 5000: 64}
     assert last_wave == 2  # 1,000 operations left over 500 actors
+
+
+def test_rollouts_on_the_pool_are_the_same_on_one_worker_and_two(ray_local):
+    """Whole-plan rollouts (rap.execution) as pool tasks: chunk results depend on the seed and
+    the indices only, whichever worker ran them and in whatever order."""
+    from rap.execution.error_model import DEFAULT_ERRORS
+    from rap.execution.rollout import RolloutPlan
+    from rap.execution.sequence import InProcess, measure
+    from rap.farm.pool import SimPool
+    from rap.farm.rollouts import PoolRollouts
+    from rap.sim.params import DEFAULT_PARAMS
+
+    from tests.execution.cases import wall_prefix
+
+    asm, steps = wall_prefix(3)
+    plan = RolloutPlan(steps, DEFAULT_PARAMS, DEFAULT_ERRORS, 2.0)
+    here = measure(asm, plan, InProcess(), 4, rollouts=60)
+    seen = []
+    for workers in (1, 2):
+        with SimPool(workers, backend=REAL) as pool:
+            runner = PoolRollouts(pool, on_chunk=lambda d, t: seen.append((d, t)))
+            out = measure(asm, plan, runner, 4, rollouts=60)
+        assert out.success == here.success and out.step_failed == here.step_failed
+    assert seen[-1] == (3, 3)  # progress: three chunks of 25, 25 and 10

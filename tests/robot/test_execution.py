@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rap.robot.arm_sim import run_arm
 from rap.robot.cell import Cell
-from rap.robot.planar import moved_assembly, run_planar
+from rap.robot.planar import run_planar
 from rap.robot.program import build_program
 
 from tests.robot.cases import STACK, STACK_PLAN
@@ -24,14 +24,6 @@ def test_planar_runs_are_counted_and_reproducible(stack):
     assert a.success == b.success and a.step_failed == b.step_failed
     assert a.step_tried[0] == 6 and a.success.successes == 6 - sum(a.step_failed)
     assert all(t - f == n for t, f, n in zip(a.step_tried, a.step_failed, a.step_tried[1:]))
-
-
-def test_a_moved_part_is_moved_exactly_when_posed(stack):
-    _, _, asm = stack
-    moved = moved_assembly(asm, {"block1": ((20.0, 15.0), (1.0, -0.5), 0.0)})
-    xs = [(float(x), float(y)) for x, y in moved.part("block1").outer]
-    orig = [(float(x) + 1.0, float(y) - 0.5) for x, y in asm.part("block1").outer]
-    assert xs == orig and moved.part("plate") == asm.part("plate")
 
 
 def test_execute_planar_reports_r_beside(run_cli):
@@ -63,15 +55,15 @@ def test_execute_on_the_arm_reports_steps_and_writes_a_gif(run_cli, tmp_path):
 
 
 def test_the_control_starts_every_step_exactly_in_place(stack, monkeypatch):
-    from rap.robot import planar
+    import rap.execution.rollout as rollout
 
     plan, _, asm = stack
     seen = []
-    real = planar.moved_assembly
-    monkeypatch.setattr(planar, "moved_assembly", lambda a, poses: seen.append(dict(poses))
-                        or real(a, poses))
-    out = planar.run_planar(plan, asm, trials=3, seed=0, carry=False)
+    real = rollout.TrialLayout
+    monkeypatch.setattr(rollout, "TrialLayout", lambda poses, grasp: seen.append(dict(poses))
+                        or real(poses, grasp))
+    out = run_planar(plan, asm, trials=3, seed=0, carry=False)
     assert out.step_tried[0] == 3 and all(p == {} for p in seen)
     seen.clear()
-    planar.run_planar(plan, asm, trials=3, seed=0)
+    run_planar(plan, asm, trials=3, seed=0)
     assert any(seen)  # carried: later steps see the earlier parts' poses

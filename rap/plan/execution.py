@@ -1,0 +1,179 @@
+"""A found plan as it will execute: sequence success under the cell's errors, each step's
+success once reached, clearance and tolerance; and the choice among the search's best plans by
+what they measure.
+
+``execute_report(problem, result, runner, options, candidates=())``:
+
+1. **Choice** (when ``candidates``, other complete plans of the search, are given): every plan,
+   the search's own first, is measured by rollouts (``rap.execution.sequence``) on the **same**
+   seeds (common random numbers), in waves of ``CHOICE_WAVES`` (100, then 200 rollouts each);
+   after a wave a plan whose interval lies wholly below the leader's is dropped, and so is an
+   alternative that measures no better than the search's plan. An alternative
+   is chosen only when its interval lies wholly above the search's plan's measured success (the
+   best such); else the search's plan stays. The search's plan is dropped only when measured
+   worse beyond both intervals, so the chosen plan is never measured worse than it beyond their
+   intervals, and a plan is not swapped for another on noise.
+2. **Measurement**: the chosen plan's ``sequence_success``, in waves until its interval is within
+   ``half_width`` (``rap.execution.sequence.measure``): the search's plan goes on from its
+   rollouts; a chosen alternative is measured again on fresh seeds (the best of several
+   estimates is biased upward; the figure a plan reports must not be).
+3. **Steps**: per step the rollouts that reached it and its success once reached, its clearance
+   (``rap.execution.clearance``, exact) and tolerance (``rap.execution.tolerance``, simulated;
+   ``options.tolerances``), flagged ``below_budget`` where the tolerance is below the cell's
+   error budget across the insertion.
+
+An alternative that is chosen has its unsimulated steps simulated (``evaluate_steps``) so that
+its R is known, like every plan's. Cost: the rollouts (a wave of 100 rollouts of an n-step plan is
+about ``4 n`` operations' labelling) per candidate still running, plus the tolerances (about three
+operations' labelling per step with something across).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Callable, Sequence
+
+import numpy as np
+
+from rap.execution.clearance import clearance
+from rap.execution.error_model import DEFAULT_ERRORS, ErrorModel
+from rap.execution.rollout import ChunkOutcome, RolloutPlan, chunks
+from rap.execution.sequence import HALF_WIDTH, WAVES, InProcess, RolloutRunner, measure, tally
+from rap.execution.tolerance import tolerance
+from rap.plan.problem import PlanningProblem
+from rap.plan.report.execution import SequenceReport, StepExecution
+from rap.plan.report.result import PlanResult
+from rap.stats import rate
+
+__all__ = ["ExecutionOptions", "execute_report", "choose", "rollout_plan", "CHOICE_WAVES"]
+
+CHOICE_WAVES = (100, 200)  # rollouts of each candidate while choosing
+
+
+@dataclass(frozen=True)
+class ExecutionOptions:
+    """How a plan's execution is measured: the cell's ``errors`` and ``mm_per_unit`` (the
+    assembly's unit in mm), the interval's target ``half_width``, at most ``max_rollouts`` per
+    plan, the ``tolerances`` of the steps (simulated) or not, and ``carry`` (False: each step from
+    the exact placement, R's assumption)."""
+
+    errors: ErrorModel = DEFAULT_ERRORS
+    mm_per_unit: float = 1.0
+    half_width: float = HALF_WIDTH
+    max_rollouts: int = WAVES[-1]
+    tolerances: bool = True
+    carry: bool = True
+
+
+def rollout_plan(problem: PlanningProblem, result: PlanResult,
+                 options: ExecutionOptions) -> RolloutPlan:
+    return RolloutPlan(tuple(s.to_operation() for s in result.steps), problem.params,
+                       options.errors, options.mm_per_unit, options.carry)
+
+
+def _waves(options: ExecutionOptions) -> tuple[int, ...]:
+    return tuple(w for w in WAVES if w < options.max_rollouts) + (int(options.max_rollouts),)
+
+
+def choose(problem: PlanningProblem, plans: Sequence[PlanResult], runner: RolloutRunner,
+           options: ExecutionOptions, seed: int,
+           on_progress: Callable[[str], None] | None = None
+           ) -> tuple[int, list[list[ChunkOutcome]]]:
+    """(the index of the plan chosen, each plan's rollout outcomes) by the rule of the module doc,
+    step 1. ``plans[0]`` is the search's plan."""
+    rplans = [rollout_plan(problem, p, options) for p in plans]
+    outcomes: list[list[ChunkOutcome]] = [[] for _ in plans]
+    done = [0] * len(plans)
+    alive = list(range(len(plans)))
+    asm = problem.assembly
+    rates = {}
+    for target in CHOICE_WAVES:
+        for i in alive:
+            outcomes[i] += runner.run_rollouts(asm, rplans[i], seed, chunks(done[i], target))
+            done[i] = target
+            rates[i] = rate(*_wins_runs(rplans[i], outcomes[i]))
+        lead = max(alive, key=lambda i: (rates[i].value, -i))
+        # an alternative stays while it may still beat the search's plan; that plan stays
+        # unless measured worse than the leader beyond both intervals
+        alive = [i for i in alive if rates[i].high >= rates[lead].low
+                 and (i == 0 or rates[i].value > rates[0].value)]
+        if on_progress is not None:
+            on_progress(f"rollouts: {target} of each plan, {len(alive)} still in the running")
+        if len(alive) == 1:
+            break
+    better = [i for i in alive if i and rates[i].low > rates[0].value]
+    chosen = max(better, key=lambda i: (rates[i].value, -i)) if better else 0
+    return chosen, outcomes
+
+
+def _candidate(plan: PlanResult, rplan: RolloutPlan, outcomes, chosen: bool) -> dict:
+    r = rate(*_wins_runs(rplan, outcomes))
+    return {"robustness": plan.robustness, "rate": r.value, "interval": [r.low, r.high],
+            "rollouts": r.trials, "chosen": chosen}
+
+
+def _wins_runs(plan: RolloutPlan, outcomes: list[ChunkOutcome]) -> tuple[int, int]:
+    wins, _, _, runs = tally(len(plan.steps), outcomes)
+    return wins, runs
+
+
+def _step_executions(problem: PlanningProblem, result: PlanResult, m: SequenceMeasure,
+                     options: ExecutionOptions, seed: int) -> tuple:
+    out = []
+    budget = options.errors.budget_across_mm
+    for k, step in enumerate(result.steps):
+        op = step.to_operation()
+        reached = m.step_rate(k)
+        c = clearance(problem.assembly, op)
+        tol = None
+        if options.tolerances:
+            tol = tolerance(problem.assembly, op, problem.params, options.mm_per_unit, seed,
+                            problem.key(op), across_free=c is None)
+        out.append(StepExecution(
+            reached=m.step_tried[k], interval=None if reached is None else (reached.low, reached.high),
+            success_when_reached=None if reached is None else reached.value,
+            clearance_mm=None if c is None else round(c * options.mm_per_unit, 6),
+            tolerance_mm=tol, below_budget=None if tol is None else bool(tol < budget)))
+    return tuple(out)
+
+
+def execute_report(problem: PlanningProblem, result: PlanResult, runner: RolloutRunner | None,
+                   options: ExecutionOptions, candidates: Sequence[PlanResult] = (), *,
+                   finish: Callable[[PlanResult], PlanResult] | None = None,
+                   on_progress: Callable[[str], None] | None = None) -> PlanResult:
+    """``result`` (found) with its sequence success and its steps' execution (module doc);
+    ``finish`` makes a chosen alternative a full plan (its steps simulated and annotated)."""
+    if not result.found or not result.steps:
+        return result
+    runner = runner or InProcess()
+    t0 = time.perf_counter()
+    seed = int(problem.root_seed)
+    plans = [result, *candidates]
+    chosen, outcomes = 0, [[]]
+    if candidates:
+        chosen, outcomes = choose(problem, plans, runner, options, seed, on_progress)
+    picked = plans[chosen]
+    if chosen and finish is not None:
+        picked = finish(picked)
+    rplan = rollout_plan(problem, picked, options)
+    # the search's plan goes on from its rollouts; a chosen alternative is measured again on
+    # fresh seeds (the best of several estimates is biased upward; module doc, 2)
+    m_seed = int(np.random.SeedSequence(seed).generate_state(1)[0]) if chosen else seed
+    m = measure(problem.assembly, rplan, runner, m_seed, half_width=options.half_width,
+                max_rollouts=options.max_rollouts, prior=() if chosen else outcomes[0],
+                on_progress=None if on_progress is None else
+                (lambda d, t: on_progress(f"rollouts: {d} of up to {t}")))
+    if on_progress is not None:
+        on_progress("steps' clearance and tolerance")
+    steps = _step_executions(problem, picked, m, options, seed)
+    report = SequenceReport(
+        m.success.value, (m.success.low, m.success.high), m.success.successes, m.rollouts,
+        {**options.errors.to_dict(), "carry": options.carry}, m_seed,
+        "sequence success" if candidates else "product",
+        tuple(_candidate(p, rplan_i, outs, i == chosen) for i, (p, rplan_i, outs) in enumerate(
+            zip(plans, (rollout_plan(problem, p, options) for p in plans), outcomes))
+            if candidates),
+        time.perf_counter() - t0)
+    return replace(picked, steps=tuple(replace(s, execution=e)
+                                       for s, e in zip(picked.steps, steps)), sequence=report)
