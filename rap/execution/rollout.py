@@ -46,7 +46,7 @@ from rap.sim.simulator import build_scene, run_trials
 
 __all__ = ["RolloutPlan", "ChunkOutcome", "CHUNK", "chunks", "run_chunk", "step_rng"]
 
-SETTLE_S = 1.0  # a step that succeeds goes on under control this long: where its parts come to rest
+SETTLE_S = 2.0  # a step that succeeds goes on under control this long: where its parts come to rest
 CHUNK = 25  # rollouts per chunk: the unit of parallel work (fixed, so results do not depend on it)
 
 
