@@ -12,6 +12,22 @@ and core sharing, passed to the CNN):
 3. the operations whose P(high) lies strictly inside ``band`` (``model.meta["band"]``) are
    rendered and scored by the CNN with the same descriptors, and take its numbers.
 
+**The guard** (with ``NAME.guard.npz`` beside the descriptor model, ``guard_path``; shipped):
+before it scores an assembly's first operation, the cascade measures how familiar the assembly is
+to the trees: the descriptors of ``GUARD_OPERATIONS`` of its operations (breadth first from the
+whole, free ones left out) against a sample of the training rows
+(``rap.model.inference.descriptor_model.Familiarity``: the share of them whose mean distance to
+their 5 nearest training rows exceeds that of 0.9 of the training rows). Beyond the stored
+``share`` the assembly is
+*unfamiliar*: every one of its operations is scored by the CNN (its images extrapolate to a new
+shape kind better than the trees' descriptors), and ``bounds`` answers with the CNN's own score
+bounds (``rap.model.calibration.load()``) for it, through ``GuardedBounds``, so the search bounds
+CNN numbers with the CNN's calibration. ``verdict(problem)`` is judged once per geometry (cached);
+``guard_report(problem)`` is what a plan says when the guard acted (``rap.plan.scoring
+.familiarity.guard_stats``: the plan's ``guard``). A familiar assembly is scored exactly as
+without the guard (same numbers, same bounds). The active bounds follow the assembly this thread
+scored last: a search scores before it bounds, in its own thread.
+
 Results are deterministic and independent of how a caller batches the operations. The band
 ``(0.5, 0.5)`` (empty; the shipped one, chosen on the unseen set: the trees alone are within a
 point of the CNN's accuracy, docs/MODEL.md) scores by the descriptors alone; ``(0, 1)`` is the CNN everywhere (with the
@@ -28,7 +44,9 @@ a descriptor model sits beside the checkpoint (``companion(path)``: ``NAME.score
 Cost: on the 22-brick wall's graph, a subassembly's operations a call, the descriptors and the
 trees take 1/18 of the CNN's time (``python benchmarks/scorer.py``: 7,864 against 431 operations
 a second, BLAS on one thread, a loaded 2-core machine), plus the CNN's for the operations in the
-band; loading adds lightgbm's import (about a second with pandas). Thread-safe: the CNN's lock serialises its forward passes; the
+band; loading adds lightgbm's import (about a second with pandas). The guard: the descriptors of
+64 operations and a 17 x 17 quadratic form, once an assembly (milliseconds); on an unfamiliar
+assembly the CNN's cost for every operation (the CNN-alone search's time). Thread-safe: the CNN's lock serialises its forward passes; the
 descriptor tables are built under a lock. No torch at import, no ray.
 """
 
@@ -41,10 +59,14 @@ from typing import Sequence
 
 import numpy as np
 
-from rap.model.inference.descriptor_model import DescriptorModel
+from rap.model.inference.descriptor_model import DescriptorModel, Familiarity
 from rap.operation import Operation
 
-__all__ = ["CascadeScorer", "companion", "bounds_path", "load_default", "checkpoint_sha256"]
+__all__ = ["CascadeScorer", "GuardedBounds", "companion", "bounds_path", "guard_path",
+           "load_default", "checkpoint_sha256", "GUARD_OPERATIONS", "guard_sample"]
+
+#: operations of an assembly the guard measures (breadth first from the whole, free ones left out)
+GUARD_OPERATIONS = 64
 
 
 def companion(path: str | Path) -> Path:
@@ -58,6 +80,12 @@ def bounds_path(model_path: str | Path) -> Path:
     ``NAME.npz``."""
     model_path = Path(model_path)
     return model_path.with_name(model_path.name.removesuffix(".npz") + ".bounds.json")
+
+
+def guard_path(model_path: str | Path) -> Path:
+    """The guard's statistics for a descriptor model: ``NAME.guard.npz`` beside ``NAME.npz``."""
+    model_path = Path(model_path)
+    return model_path.with_name(model_path.name.removesuffix(".npz") + ".guard.npz")
 
 
 def checkpoint_sha256(path: str | Path) -> str:
@@ -78,21 +106,83 @@ class CascadeScorer:
     engine = "cascade"
 
     def __init__(self, cnn, model: DescriptorModel, band: tuple[float, float] | None = None,
-                 bounds=None):
+                 bounds=None, guard: Familiarity | None = None):
         self.cnn = cnn
-        self.bounds = bounds
+        self._bounds = bounds
         self.model = model
+        self.guard = guard
         lo, hi = band if band is not None else model.meta.get("band", (0.5, 0.5))
         self.band = (float(lo), float(hi))
         self.counts = {"descriptors": 0, "cnn": 0}
+        self.guarded = 0  # operations the guard sent to the CNN (counted in counts["cnn"] too)
         self._tables: dict = {}
         self._tables_lock = threading.Lock()
+        self._verdicts: dict = {}
+        self._local = threading.local()  # the verdict of the assembly this thread scored last
         from rap.model.data.descriptors import DESCRIPTORS, columns
 
         names = tuple(getattr(cnn.predictor, "descriptors", ()) or ())
         self._cnn_columns = columns(names) if names else None
         if tuple(model.meta.get("descriptors", DESCRIPTORS)) != DESCRIPTORS:
             raise ValueError("the descriptor model must take rap.model.data.descriptors.DESCRIPTORS")
+
+    # the guard ---------------------------------------------------------------------------
+    @property
+    def bounds(self):
+        """The score bounds a search should use (module doc): the descriptor model's; with a
+        guard, a ``GuardedBounds`` that answers with the CNN's own bounds while the assembly
+        this thread scores was found unfamiliar."""
+        if self.guard is None:
+            return self._bounds
+        return GuardedBounds(self)
+
+    @bounds.setter
+    def bounds(self, value) -> None:
+        self._bounds = value
+
+    def verdict(self, problem) -> dict | None:
+        """The guard's verdict on ``problem``'s assembly (module doc), judged once per geometry:
+        ``{"unfamiliar", "outside", "share", "operations"}``; None without a guard."""
+        if self.guard is None:
+            return None
+        h = problem.assembly.geometry_hash
+        with self._tables_lock:
+            got = self._verdicts.get(h)
+        if got is None:
+            ops = guard_sample(problem, GUARD_OPERATIONS)
+            outside = self.guard.outside(self.descriptors(problem, ops)) if ops else 0.0
+            got = {"unfamiliar": bool(ops) and outside > self.guard.share,
+                   "outside": round(outside, 4), "share": self.guard.share,
+                   "operations": len(ops)}
+            with self._tables_lock:
+                if len(self._verdicts) >= 64:
+                    self._verdicts.pop(next(iter(self._verdicts)))
+                self._verdicts[h] = got
+        self._local.verdict = got
+        return got
+
+    def guard_report(self, problem) -> dict | None:
+        """What a plan says of the guard: None when it did not act (no guard, or a familiar
+        assembly), else the verdict and the action (every operation to the CNN, the CNN's
+        bounds for the search)."""
+        v = self.verdict(problem)
+        if v is None or not v["unfamiliar"]:
+            return None
+        return {**v, "action": "every operation scored by the CNN; the search bounds with the "
+                               "CNN's score bounds"}
+
+    def active_bounds(self):
+        """The bounds of the assembly this thread scored last (``GuardedBounds``)."""
+        v = getattr(self._local, "verdict", None)
+        if v is not None and v["unfamiliar"]:
+            from rap.model.calibration import load
+
+            return load()
+        if self._bounds is None:
+            from rap.model.calibration import load
+
+            return load()
+        return self._bounds
 
     @property
     def batch_first(self) -> bool:
@@ -150,7 +240,12 @@ class CascadeScorer:
         d = self.descriptors(problem, ops)
         prob, expected = self.model.prob_high_and_expected(d)
         lo, hi = self.band
-        unsure = np.flatnonzero((prob > lo) & (prob < hi))
+        verdict = self.verdict(problem)
+        if verdict is not None and verdict["unfamiliar"]:  # the guard: the CNN scores them all
+            unsure = np.arange(len(ops))
+            self.guarded += len(ops)
+        else:
+            unsure = np.flatnonzero((prob > lo) & (prob < hi))
         self.counts["descriptors"] += len(ops) - len(unsure)
         if len(unsure):
             self.counts["cnn"] += len(unsure)
@@ -169,6 +264,38 @@ class CascadeScorer:
         return self.prob_high_and_expected(problem, ops)[1]
 
 
+def guard_sample(problem, limit: int) -> list[Operation]:
+    """Up to ``limit`` operations that are not free, breadth first from the whole assembly (the
+    sample of ``rap.plan.scoring.familiarity.familiarity_operations``, on the problem's own
+    ``candidates`` and ``is_free``); deterministic."""
+    out: list[Operation] = []
+    queue, seen, head, looked = [problem.whole], set(), 0, 0
+    while head < len(queue) and len(out) < limit and looked < 4 * limit:
+        s = queue[head]
+        head += 1
+        if len(s) < 2 or s in seen:
+            continue
+        seen.add(s)
+        for op in problem.candidates(s):
+            looked += 1
+            if not problem.is_free(op):
+                out.append(op)
+            queue += [op.moving, op.fixed]
+    return out[:limit]
+
+
+class GuardedBounds:
+    """Score bounds that follow the guard: every attribute (``upper``, ``calibrated``,
+    ``perfect``, ``provenance``, ...) is that of ``cascade.active_bounds()``, the descriptor
+    model's on a familiar assembly (unchanged numbers) and the CNN's on an unfamiliar one."""
+
+    def __init__(self, cascade: CascadeScorer):
+        self._cascade = cascade
+
+    def __getattr__(self, name):
+        return getattr(self._cascade.active_bounds(), name)
+
+
 def load_default(path: str | Path, cnn) -> CascadeScorer | None:
     """A ``CascadeScorer`` over ``cnn`` (the loaded checkpoint ``path``) when a descriptor model
     fitted for this very checkpoint lies beside it (``companion``), else None."""
@@ -183,4 +310,5 @@ def load_default(path: str | Path, cnn) -> CascadeScorer | None:
         from rap.model.calibration import load
 
         bounds = load(bounds_path(model_path))
-    return CascadeScorer(cnn, model, bounds=bounds)
+    guard = Familiarity.load(guard_path(model_path)) if guard_path(model_path).is_file() else None
+    return CascadeScorer(cnn, model, bounds=bounds, guard=guard)

@@ -35,7 +35,7 @@ import numpy as np
 
 from rap.stats import binomial_tail, high_count
 
-__all__ = ["DescriptorModel", "FORMAT", "LOG_EPS", "features"]
+__all__ = ["DescriptorModel", "Familiarity", "FORMAT", "LOG_EPS", "features"]
 
 FORMAT = "rap-farm/descriptor-model"
 LOG_EPS = 1e-4
@@ -160,3 +160,80 @@ def _meta(z, path: str | Path) -> dict:
     if meta.get("format") != FORMAT:
         raise ValueError(f"{path}: not a {FORMAT} file")
     return meta
+
+
+
+class Familiarity:
+    """How far an operation's descriptors lie from the descriptor model's training rows: the mean
+    distance to the ``k`` nearest of a seeded ``reference`` sample of the training rows, in the
+    standardised features ``features(descriptors, log_columns)``; ``limit`` is the ``quantile``
+    of that distance over training rows outside the reference. ``outside(descriptors)`` is the
+    share of rows beyond the limit, what the cascade's guard compares with ``share``
+    (``rap.model.inference.cascade``). Chosen by measurement over a global Mahalanobis distance
+    and the trees' disagreement with the CNN, which did not separate new shape kinds from fresh
+    seeds of the training families (research/README.md, "Leave one family out").
+
+    Kept beside the model as ``NAME.guard.npz`` (``allow_pickle=False``): ``mean``, ``scale``,
+    ``reference`` (float16: standardised numbers, a thousandth apart), and ``meta`` (JSON: k, limit, share, quantile, log columns, counts).
+    Cost: a brute-force [N, R] distance matrix, tens of milliseconds for 64 operations against
+    the shipped 60,000 reference rows (once an assembly); the file is about 2 MB. numpy only."""
+
+    def __init__(self, mean, scale, reference, meta: dict):
+        self.mean = np.asarray(mean, np.float64)
+        self.scale = np.asarray(scale, np.float64)
+        self.reference = np.ascontiguousarray(reference, np.float32)
+        self.meta = dict(meta)
+        self.k = int(self.meta["k"])
+        self.limit = float(self.meta["limit"])
+        self.share = float(self.meta["share"])
+        self.log_columns = tuple(int(c) for c in self.meta.get("log_columns", ()))
+        self._ref_sq = (self.reference.astype(np.float64) ** 2).sum(axis=1)
+
+    @classmethod
+    def fit(cls, descriptors: np.ndarray, log_columns=(), *, reference: int = 60000, k: int = 5,
+            quantile: float = 0.9, share: float = 0.6, probe: int = 5000,
+            rng: np.random.Generator) -> "Familiarity":
+        """Fitted on training rows' descriptors: a seeded reference sample, the limit measured
+        on ``probe`` other rows."""
+        f = features(descriptors, log_columns).astype(np.float64)
+        mean, scale = f.mean(axis=0), f.std(axis=0) + 1e-9
+        order = rng.permutation(len(f))
+        ref, others = order[:reference], order[reference:reference + probe]
+        out = cls(mean, scale, (f[ref] - mean) / scale,
+                  {"k": k, "limit": 0.0, "share": share, "quantile": quantile,
+                   "log_columns": list(log_columns), "rows": int(len(f)),
+                   "reference": int(len(ref)), "probe": int(len(others))})
+        out.limit = float(np.quantile(out.distance(descriptors[others]), quantile))
+        out.meta["limit"] = out.limit
+        return out
+
+    def distance(self, descriptors: np.ndarray) -> np.ndarray:
+        """Mean distance of each row to its ``k`` nearest reference rows, float64 [N]."""
+        z = (features(descriptors, self.log_columns).astype(np.float64) - self.mean) / self.scale
+        d2 = (z ** 2).sum(axis=1)[:, None] + self._ref_sq[None, :] - 2.0 * z @ self.reference.T
+        near = np.partition(np.maximum(d2, 0.0), self.k - 1, axis=1)[:, :self.k]
+        return np.sqrt(near).mean(axis=1)
+
+    def outside(self, descriptors: np.ndarray) -> float:
+        """The share of rows farther than ``limit`` (0 for no rows)."""
+        if not len(descriptors):
+            return 0.0
+        return float(np.mean(self.distance(descriptors) > self.limit))
+
+    def save(self, path: str | Path) -> Path:
+        from rap.files import write_bytes_atomic
+
+        buf = io.BytesIO()
+        np.savez_compressed(buf, mean=self.mean, scale=self.scale,
+                            reference=self.reference.astype(np.float16),  # 2 bytes a number
+                            meta=np.array(json.dumps({**self.meta, "format": FORMAT + "/guard"},
+                                                     sort_keys=True)))
+        return write_bytes_atomic(Path(path), buf.getvalue())
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Familiarity":
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(str(z["meta"]))
+            if meta.get("format") != FORMAT + "/guard":
+                raise ValueError(f"{path}: not a descriptor guard file")
+            return cls(z["mean"], z["scale"], z["reference"], meta)

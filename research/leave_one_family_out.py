@@ -1,0 +1,187 @@
+"""Leave-one-family-out evaluation of the default scorer (issue 45), and the guard's statistics.
+
+    python -m research.leave_one_family_out scorer [--rows 2000] [--rounds 400]
+    python -m research.leave_one_family_out plans [--families arch,dovetail] [--seeds 0] [--max-parts 8]
+    python -m research.leave_one_family_out guard-stats [--out rap/data/default_model.scorer.guard.json]
+
+``scorer``: for every family F of ``datasets/corpus`` (the reference six excepted), the cascade's
+trees are retrained on every other family's rows (``research.descriptor_scorer``'s recipe:
+LightGBM, cross-entropy on the success rates, ``--rounds`` rounds, seeded, the shipped
+temperature) and scored on a seeded sample of ``--rows`` of F's rows; beside them the shipped
+CNN on the same rows (rendered images from the corpus: the CNN *has* seen F, so its figures are
+optimistic) and the shipped trees (which have seen F too). Per family: accuracy of the P(high)
+decision at 0.95, ECE, and the mean absolute error of the expected score.
+
+``plans``: small assemblies (at most ``--max-parts`` parts) of the held-out shape kinds
+(``rap.geometry.families.unseen``) or of named training families: the default plan (with its
+guard), the same cascade without the guard (the trees alone, as before issue 45), the CNN-alone
+search and the optimum (``--method optimal``), R and seconds each, one shared root seed; each
+one's share of the optimum and whether the guard flagged the assembly. Simulations dominate: minutes an assembly on 2 cores.
+
+``guard-stats``: fits ``rap.model.inference.descriptor_model.Familiarity`` (a seeded reference of
+60,000 corpus rows; the 0.9 quantile of the other rows' mean distance to their 5 nearest) and
+writes the guard file beside the shipped descriptor model (``--share``: the share of an
+assembly's sampled operations beyond the limit that flags it; chosen by ``--measure``, which
+prints the share of fresh seeds of the training families and of the held-out kinds).
+
+Cost: ``scorer`` a LightGBM fit a family (a minute or two each on 2 cores) plus the CNN on
+``--rows`` rows; ``plans`` the optimum's simulations; ``guard-stats`` the corpus descriptors
+(cached under ``$RAP_CACHE_DIR``) and a 17 x 17 covariance.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CHECKPOINT = ROOT / "rap" / "data" / "default_model.pt"
+
+
+def _metrics(labels, prob, expected, scores) -> dict:
+    from rap.model.evaluation.metrics import classification_metrics
+
+    m = classification_metrics(labels, prob, reliability=True)
+    return {"accuracy": round(float(m["accuracy"]), 4), "ece": round(float(m["ece"]), 4),
+            "mae": round(float(np.abs(expected - scores).mean()), 4)}
+
+
+def scorer_table(rows: int, rounds: int, seed: int = 0) -> list[dict]:
+    import research.descriptor_scorer as ds
+    from rap.model.inference.descriptor_model import DescriptorModel
+    from rap.model.inference.operations import OperationPredictor
+
+    store, x = ds.corpus_rows()
+    shipped = DescriptorModel.load(ROOT / "rap" / "data" / "default_model.scorer.npz")
+    cnn = OperationPredictor.load(CHECKPOINT, engine="cnn")
+    cols = getattr(cnn.predictor, "descriptors", ()) or ()
+    from rap.model.data.descriptors import columns
+
+    cnn_cols = columns(tuple(cols)) if cols else None
+    rng = np.random.default_rng(seed)
+    out = []
+    for fam in sorted(set(store.family.tolist()) - {"reference"}):
+        t = time.perf_counter()
+        held = np.flatnonzero(store.family == fam)
+        tr = np.flatnonzero(store.family != fam)
+        import lightgbm
+
+        data = lightgbm.Dataset(x[tr].astype(np.float64), label=store.successes[tr] / store.trials[tr],
+                                weight=store.trials[tr] / 100.0)
+        booster = lightgbm.train({**ds.GBT_PARAMS, "seed": seed, "verbose": -1}, data, rounds)
+        lofo = DescriptorModel(None, None, [], {**shipped.meta}, booster=booster.model_to_string())
+        pick = np.sort(rng.choice(held, min(rows, len(held)), replace=False))
+        labels = store.scores[pick] >= 0.95
+        row = {"family": fam, "rows": int(len(pick))}
+        for name, model in (("trees_lofo", lofo), ("trees_shipped", shipped)):
+            p, e = model.prob_high_and_expected(x[pick])
+            row[name] = _metrics(labels, p, e, store.scores[pick])
+        d = None if cnn_cols is None else np.ascontiguousarray(x[pick][:, cnn_cols])
+        p, e = cnn.forward("prob_high_and_expected", store.images[pick], d)  # the 'pair' view
+        row["cnn_shipped"] = _metrics(labels, p, e, store.scores[pick])
+        row["seconds"] = round(time.perf_counter() - t, 1)
+        print(json.dumps(row), flush=True)
+        out.append(row)
+    return out
+
+
+def plan_table(families: list[str], seeds: list[int], max_parts: int) -> list[dict]:
+    from rap.geometry.families import generate
+    from rap.model.inference.operations import OperationPredictor
+    from rap.plan import plan
+    from rap.plan.scoring.cache import ScoreCache
+
+    out = []
+    for fam in families:
+        for seed in seeds:
+            asm = generate(fam, seed)
+            if len(asm) > max_parts:
+                continue
+            default = OperationPredictor.load(CHECKPOINT, engine="auto")
+            trees = OperationPredictor.load(CHECKPOINT, engine="auto")
+            trees.guard = None  # the cascade as it was before the guard
+            cnn = OperationPredictor.load(CHECKPOINT, engine="cnn")
+            row = {"assembly": asm.name, "parts": len(asm)}
+            # one cache: scores are content-keyed and seeded, so R is what each would get alone;
+            # the default runs first (its time from an empty cache), the optimum last (its time
+            # is then a lower bound: some operations were simulated before)
+            cache = ScoreCache()
+            for name, kw in (("default", {"model": default}), ("trees", {"model": trees}),
+                             ("cnn", {"model": cnn}), ("optimal", {"method": "optimal"})):
+                t = time.perf_counter()
+                r = plan(asm, cache=cache, **kw)
+                row[name] = {"R": round(float(r.robustness), 4),
+                             "seconds": round(time.perf_counter() - t, 1)}
+                if name == "default":
+                    row["guard"] = (r.stats.get("guard") or {}).get("outside")
+                    row["flagged"] = r.stats.get("guard") is not None
+            opt = row["optimal"]["R"]
+            for name in ("default", "trees", "cnn"):
+                row[f"{name}_share"] = round(row[name]["R"] / opt, 3) if opt > 0 else None
+            print(json.dumps(row), flush=True)
+            out.append(row)
+    return out
+
+
+def guard_stats(out: Path, share: float, measure: bool, reference: int) -> None:
+    import research.descriptor_scorer as ds
+    from rap.model.inference.descriptor_model import Familiarity
+
+    store, x = ds.corpus_rows()
+    fam = Familiarity.fit(x, ds.LOG_COLUMNS, reference=reference, share=share,
+                          rng=np.random.default_rng(0))
+    fam.meta.update(command="python -m research.leave_one_family_out guard-stats",
+                    dataset="datasets/corpus")
+    if measure:
+        from rap.geometry.families import FAMILIES, HELD_OUT, generate
+        from rap.model.data.batch_descriptors import BatchDescriptors
+        from rap.model.inference.cascade import GUARD_OPERATIONS, guard_sample
+        from rap.plan.problem import PlanningProblem
+        from rap.sim.params import SimParams
+
+        for name, seeds in ([(f, (200, 201)) for f in sorted(FAMILIES)]
+                            + [(f, (0, 1, 2, 3)) for f in sorted(HELD_OUT)]):
+            for s in seeds:
+                asm = generate(name, s)
+                problem = PlanningProblem(asm, SimParams())
+                ops = guard_sample(problem, GUARD_OPERATIONS)
+                d = BatchDescriptors(asm).of(ops) if ops else np.zeros((0, 12))
+                print(json.dumps({"assembly": asm.name, "parts": len(asm),
+                                  "held_out": name in HELD_OUT,
+                                  "outside": round(fam.outside(d), 3), "operations": len(ops)}),
+                      flush=True)
+    fam.save(out)
+    print(f"limit {fam.limit:.3f} ({fam.meta['quantile']} of {fam.meta['probe']} training rows "
+          f"against {fam.meta['reference']}), share {share}; wrote {out}")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    a1 = sub.add_parser("scorer")
+    a1.add_argument("--rows", type=int, default=2000)
+    a1.add_argument("--rounds", type=int, default=400)
+    a2 = sub.add_parser("plans")
+    a2.add_argument("--families", default="arch,dovetail,puzzle,bond")
+    a2.add_argument("--seeds", default="0")
+    a2.add_argument("--max-parts", type=int, default=8)
+    a3 = sub.add_parser("guard-stats")
+    a3.add_argument("--out", default=str(ROOT / "rap" / "data" / "default_model.scorer.guard.npz"))
+    a3.add_argument("--share", type=float, default=0.6)
+    a3.add_argument("--measure", action="store_true")
+    a3.add_argument("--reference", type=int, default=60000)
+    a = ap.parse_args(argv)
+    if a.what == "scorer":
+        scorer_table(a.rows, a.rounds)
+    elif a.what == "plans":
+        plan_table(a.families.split(","), [int(s) for s in a.seeds.split(",")], a.max_parts)
+    else:
+        guard_stats(Path(a.out), a.share, a.measure, a.reference)
+
+
+if __name__ == "__main__":
+    main()

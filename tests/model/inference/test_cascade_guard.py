@@ -1,0 +1,102 @@
+"""The default scorer's guard (rap.model.inference.cascade, descriptor_model.Familiarity): a
+familiar assembly is scored and bounded exactly as without it; an unfamiliar one (a held-out
+shape kind) is flagged, scored by the CNN alone and bounded by the CNN's bounds; the plan says so;
+its plan reaches 0.95 of the optimum."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rap
+from rap.geometry.families import generate
+from rap.model.calibration import load as cnn_bounds
+from rap.model.inference.cascade import CascadeScorer, GuardedBounds, guard_path, companion
+from rap.model.inference.descriptor_model import Familiarity
+from rap.model.inference.operations import OperationPredictor
+from rap.plan.problem import PlanningProblem
+from rap.sim.params import SimParams
+
+SHIPPED = Path(rap.__file__).parent / "data" / "default_model.pt"
+FAMILIAR = ("wall", 200)  # a fresh seed of a training family
+UNFAMILIAR = ("arch", 1)  # a held-out shape kind, 6 parts
+
+
+@pytest.fixture(scope="module")
+def cascade():
+    c = OperationPredictor.load(SHIPPED, engine="auto")
+    assert isinstance(c, CascadeScorer) and c.guard is not None  # shipped with its guard
+    return c
+
+
+def _problem(name_seed):
+    return PlanningProblem(generate(*name_seed), SimParams())
+
+
+def test_the_guard_file_round_trips(tmp_path):
+    fam = Familiarity.load(guard_path(companion(SHIPPED)))
+    again = Familiarity.load(fam.save(tmp_path / "g.npz"))
+    assert (again.limit, again.share, again.k) == (fam.limit, fam.share, fam.k)
+    np.testing.assert_array_equal(again.reference, fam.reference)
+    assert fam.meta["quantile"] == 0.9 and fam.share == 0.6 and len(fam.reference) == 60000
+
+
+def test_familiar_assembly_is_scored_and_bounded_as_without_the_guard(cascade):
+    problem = _problem(FAMILIAR)
+    ops = list(problem.candidates(problem.whole))
+    bare = CascadeScorer(cascade.cnn, cascade.model, bounds=cascade._bounds)
+    got, want = cascade.prob_high_and_expected(problem, ops), bare.prob_high_and_expected(problem, ops)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    assert not cascade.verdict(problem)["unfamiliar"] and cascade.guard_report(problem) is None
+    p = np.linspace(0, 1, 11)
+    np.testing.assert_array_equal(cascade.bounds.upper(p, 0.99), bare.bounds.upper(p, 0.99))
+
+
+def test_unfamiliar_assembly_is_flagged_scored_by_the_cnn_and_cnn_bounded(cascade):
+    problem = _problem(UNFAMILIAR)
+    ops = list(problem.candidates(problem.whole))
+    v = cascade.verdict(problem)
+    assert v["unfamiliar"] and v["outside"] > v["share"]
+    before = cascade.guarded
+    p, e = cascade.prob_high_and_expected(problem, ops)
+    assert cascade.guarded - before == len(ops)
+    want = cascade.cnn.prob_high_and_expected(problem, ops)
+    np.testing.assert_allclose(e, want[1], atol=1e-6)
+    bounds = cascade.bounds
+    assert isinstance(bounds, GuardedBounds)
+    q = np.linspace(0, 1, 11)
+    np.testing.assert_array_equal(bounds.upper(q, 0.99), cnn_bounds().upper(q, 0.99))
+    assert "CNN" in cascade.guard_report(problem)["action"]
+
+
+@pytest.mark.slow
+def test_unfamiliar_plan_says_so_and_reaches_095_of_the_optimum():
+    from rap.plan import plan
+    from rap.plan.scoring.cache import ScoreCache
+
+    asm = generate(*UNFAMILIAR)
+    cache = ScoreCache()  # shared: scores are content-keyed and seeded
+    default = plan(asm, model=OperationPredictor.load(SHIPPED, engine="auto"), cache=cache)
+    doc = default.to_json()
+    assert doc["guard"]["unfamiliar"] is True and "action" in doc["guard"]
+    optimum = plan(asm, method="optimal", cache=cache)
+    assert default.robustness >= 0.95 * optimum.robustness
+
+
+@pytest.mark.slow
+def test_familiar_plan_has_no_guard_entry_and_is_unchanged():
+    from rap.plan import plan
+    from rap.plan.scoring.cache import ScoreCache
+
+    asm = generate(*FAMILIAR)
+    with_guard = OperationPredictor.load(SHIPPED, engine="auto")
+    without = OperationPredictor.load(SHIPPED, engine="auto")
+    without.guard = None
+    a = plan(asm, model=with_guard, cache=ScoreCache())
+    b = plan(asm, model=without, cache=ScoreCache())
+    assert "guard" not in a.to_json()
+    assert [s.to_json() for s in a.steps] == [s.to_json() for s in b.steps]
+    assert a.robustness == b.robustness
