@@ -7,6 +7,8 @@
   metadata (``OperationPredictor.meta``: its training assemblies and image statistics) and the rendered
   images of those operations (``OperationPredictor.images``): the assembly was in the training data, or
   its images look unlike the training images.
+* ``guard_stats(scorer, problem)``: the plan's ``guard`` entry when the default scorer's guard
+  (``rap.model.inference.cascade``) found the assembly unfamiliar and acted, else nothing.
 * ``foreground_stats(images)``: the image statistics compared, with the definitions of
   ``rap.model.data.rows.image_stats`` (computed here without importing pyarrow).
 
@@ -28,7 +30,7 @@ import numpy as np
 from rap.operation import Operation
 from rap.plan.problem import PlanningProblem
 
-__all__ = ["familiarity_operations", "model_familiarity", "foreground_stats",
+__all__ = ["familiarity_operations", "model_familiarity", "foreground_stats", "guard_stats",
            "FAMILIARITY_OPERATIONS"]
 
 FAMILIARITY_OPERATIONS = 64  # operations whose images ``model_familiarity`` compares
@@ -89,6 +91,21 @@ def model_familiarity(meta: dict, geometry_hash: str, images: np.ndarray,
                          f"{coarse:.2f}; trained on {_trained_on(trained)}): expect "
                          f"more simulator fallbacks or less robust choices")
     return notes
+
+
+def guard_stats(scorer, problem: PlanningProblem) -> dict:
+    """``{"guard": ...}`` for a plan's stats when the scorer's model backend has a guard that
+    found this assembly unfamiliar and acted (``rap.model.inference.cascade.CascadeScorer
+    .guard_report``: the share of sampled operations whose descriptors lie far from the training
+    rows, the threshold, and what was done), else ``{}``: a familiar assembly's plan is unchanged.
+    The plan document writes it as ``guard`` (``rap.plan.report.result``). Only a planner that
+    asked the model is reported (the verdict is cached per assembly: this costs nothing more)."""
+    cnn = getattr(scorer, "cnn", None)
+    report = getattr(cnn, "guard_report", None)
+    if report is None or not scorer.stats.cnn_batches:
+        return {}
+    got = report(problem)
+    return {"guard": got} if got else {}
 
 
 def _trained_on(trained: list[dict]) -> str:
