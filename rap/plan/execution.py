@@ -154,8 +154,14 @@ def execute_report(problem: PlanningProblem, result: PlanResult, runner: Rollout
     if candidates:
         chosen, outcomes = choose(problem, plans, runner, options, seed, on_progress)
     picked = plans[chosen]
-    if chosen and finish is not None:
-        picked = finish(picked)
+    if chosen:  # the search's run, timings and bound are the chosen plan's too (its gap anew)
+        t1 = time.perf_counter()
+        picked = finish(picked) if finish is not None else picked
+        bound = None if result.bound is None else dict(result.bound)
+        if bound is not None and picked.robustness is not None:
+            bound["gap"] = max(0.0, bound["robustness_upper"] - picked.robustness)
+        picked = replace(picked, seconds=result.seconds, stats=result.stats, bound=bound,
+                         eval_seconds=result.eval_seconds + time.perf_counter() - t1)
     rplan = rollout_plan(problem, picked, options)
     # the search's plan goes on from its rollouts; a chosen alternative is measured again on
     # fresh seeds (the best of several estimates is biased upward; module doc, 2)
