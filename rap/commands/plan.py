@@ -289,7 +289,8 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
     req = service.PlanRequest(asm, method, params, root_seed, space,
                               options["samples"] or RandomOptions().samples,
                               planner_options=planner_options,
-                              constraints=settings.get("constraints"))
+                              constraints=settings.get("constraints"),
+                              rollouts=settings.get("execution") is not None)
     with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
         result = service.run_plan(req, model_path=model_path, address=address, workers=workers,
                                   cache_path=str(cache_path) if cache_path else None)

@@ -51,7 +51,7 @@ __all__ = ["ServeConfig", "BadRequest", "PlanBody", "parse_plan_body", "parse_pl
            "PLAN_BODY_OPENAPI", "UPLOAD_OPENAPI", "UPLOAD_NAME_HELP",
            "REQUEST_KEYS", "DETAILS_HEADER", "PLANNER_OPTIONS", "UPLOAD_SUFFIXES"]
 
-REQUEST_KEYS = ("assembly", "method", "seed", "options", "constraints", "budget_s")
+REQUEST_KEYS = ("assembly", "method", "seed", "options", "constraints", "budget_s", "rollouts")
 # option -> (methods it applies to, kind, low, high, low inclusive): make_planner's keywords, as
 # the methods declare them (rap.plan.methods), for the API's schema
 PLANNER_OPTIONS = {name: (methods, opt.kind, opt.low, opt.high, not opt.low_open)
@@ -226,6 +226,7 @@ class PlanBody:
     options: dict
     constraints: CellConstraints
     budget_s: float
+    rollouts: bool = True
 
 
 def parse_plan_body(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optimal_parts: int = 16,
@@ -249,6 +250,9 @@ def parse_plan_body(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optim
     except ValueError as exc:
         raise BadRequest(*exc.args) from None
     constraints = _constraints(doc.get("constraints", {}))
+    rollouts = doc.get("rollouts", True)
+    if not isinstance(rollouts, bool):
+        raise BadRequest(400, f"rollouts {rollouts!r}: must be true or false")
     assembly = request_assembly(doc["assembly"], max_parts, max_vertices)
     if method == "optimal" and len(assembly) > max_optimal_parts:
         raise BadRequest(413, f"method 'optimal': {len(assembly)} parts; this service finds the "
@@ -257,7 +261,7 @@ def parse_plan_body(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optim
         constraints.check(assembly)
     except ParameterError as exc:
         raise BadRequest(400, exc.for_name("constraints.base")) from None
-    return PlanBody(assembly, method, int(seed), options, constraints, budget_s)
+    return PlanBody(assembly, method, int(seed), options, constraints, budget_s, rollouts)
 
 
 def parse_plan_request(body: bytes, **limits):
@@ -319,6 +323,11 @@ PLAN_BODY_OPENAPI = {
                 "method": {"type": "string", "enum": list(METHODS), "default": DEFAULT_METHOD},
                 "seed": {"type": "integer", "description": "Root seed of the simulator's "
                          "randomness", "default": DEFAULT_ROOT_SEED},
+                "rollouts": {"type": "boolean", "default": True,
+                             "description": "Measure the found plan's sequence success by "
+                             "rollouts on the simulation pool under the shipped cell's errors "
+                             "(and, for the search, choose among its 3 best plans by it): "
+                             "`sequence_success` and each step's `execution`"},
                 "budget_s": {"type": "number", "exclusiveMinimum": 0,
                              "description": "The request's time budget in seconds (default "
                              "and cap: the service's, 120 and 600 unless set otherwise). The "

@@ -111,6 +111,9 @@ class SharedSimulations:
         return [(mine[k][1] if k in mine else theirs[k]).result() for k in keys]
 
 
+EXECUTION_CANDIDATES = 3  # the search's plans a request's rollouts compare (``rap-farm plan``'s)
+
+
 @dataclass(frozen=True)
 class PlanRequest:
     """One planning job. ``cold``: plan with an empty score cache (for timings); the scores found
@@ -126,6 +129,7 @@ class PlanRequest:
     cold: bool = False
     planner_options: dict = field(default_factory=dict)  # make_planner's keyword options
     constraints: Any = None  # rap.plan.cell.constraints.CellConstraints; None: none
+    rollouts: bool = False  # measure the plan by rollouts on the pool (and choose: the search)
 
 
 class PlanningService:
@@ -172,8 +176,13 @@ class PlanningService:
             cache = ScoreCache() if request.cold else None
             scorer = self.base.fork(budget=request.budget, cache=cache)
             t = time.perf_counter()
+            options, execution, runner = dict(request.planner_options), None, None
+            if request.rollouts:
+                execution, runner = self._execution(request.assembly)
+                if request.method == "search":
+                    options.setdefault("alternatives", EXECUTION_CANDIDATES)
             result = plan(problem, request.method, scorer=scorer, samples=request.samples,
-                          **request.planner_options)
+                          execution=execution, rollouts=runner, **options)
             if cache is not None:
                 self.cache.put_many(cache.items())
             stats = dict(result.stats, service_seconds=time.perf_counter() - t)
@@ -181,6 +190,21 @@ class PlanningService:
         finally:
             with self._count_lock:
                 self._active -= 1
+
+    def _execution(self, assembly):
+        """The rollouts of a request (``rap.plan.execution``): the shipped cell's errors and unit;
+        on the shared pool, or the local simulator (``local_sim``)."""
+        from rap.plan.execution import ExecutionOptions
+        from rap.robot.cell import Cell
+
+        cell = Cell()
+        options = ExecutionOptions(errors=cell.error_model(),
+                                   mm_per_unit=cell.unit_metres(assembly.units) * 1000.0)
+        if self.pool is None:
+            return options, self.simulations.backend
+        from rap.farm.rollouts import PoolRollouts
+
+        return options, PoolRollouts(self.pool)
 
     def peak_concurrency(self) -> int:
         """The largest number of requests that were being served at the same time."""

@@ -112,7 +112,7 @@ def test_rap_high_probability_decides_what_counts_as_high(tmp_path):
         assert p.returncode == 0, p.stderr
         docs[p_high] = json.loads(out.read_text())["steps"]
     assert all(s["source"] == "sim" for s in docs["1.0"])
-    assert all(s["source"] == "cnn" for s in docs["0.01"])
+    assert all(s["source"] == "model" for s in docs["0.01"])
     bad = run(src, "--method", "rap", "--high-probability", "0", tmp_path=tmp_path)
     assert bad.returncode == 2 and "--high-probability" in bad.stderr
     assert "Traceback" not in bad.stderr

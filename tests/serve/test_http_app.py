@@ -163,7 +163,7 @@ def test_a_held_out_assembly_is_planned_validly_and_as_in_process(service):
     assert result.found and check_plan(asm, result.steps) == []
     details = json.loads(headers["x-plan-details"])
     # each step the CNN chose is simulated once for R (the service's cache starts cold)
-    assert details["stats"]["eval_simulations"] == sum(s["source"] == "cnn" for s in doc["steps"])
+    assert details["stats"]["eval_simulations"] == sum(s["source"] == "model" for s in doc["steps"])
     assert "eval_seconds" in details
     assert _same_plan(doc, _local_plan(asm, "rap", 3))
 

@@ -281,7 +281,7 @@ def _check_storyboard(pg, doc: dict, tmp_path: Path) -> None:
     for k, (row, st) in enumerate(zip(rows, steps)):
         assert row[:3] == [str(k + 1), ", ".join(st["moving"]), ", ".join(st["fixed"])]
         assert row[4] == f"{st['score']:.2f}"
-        assert row[5] == {"cnn": "model", "sim": "simulator", "random": "random",
+        assert row[5] == {"model": "model", "sim": "simulator", "random": "random",
                           "free": "free: no contact"}[st["source"]]
     assert pg.inner_text("#step-title").startswith(f"step 1 of {n}: r = {steps[0]['score']:.2f}")
     for k in range(1, n):

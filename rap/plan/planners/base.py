@@ -27,6 +27,7 @@ import time
 from typing import ClassVar, Sequence
 
 from rap.plan.cell.rules import blocked_by, constraint_stats
+from rap.plan.scoring.familiarity import guard_stats
 from rap.plan.graph import Interlocked
 from rap.plan.planners.options import PlannerOptions
 from rap.plan.problem import PlanningProblem
@@ -43,8 +44,7 @@ def evaluate_steps(problem: PlanningProblem, scorer: ScorerProtocol,
                    steps: Sequence[PlanStep]) -> list[PlanStep]:
     """The steps with their simulator scores (one batch; cached scores reused)."""
     scores = scorer.scores(problem, [s.to_operation() for s in steps])
-    return [PlanStep(s.moving, s.fixed, s.direction, s.source, sc, s.confidence, s.operation)
-            for s, sc in zip(steps, scores)]
+    return [dataclasses.replace(s, score=sc) for s, sc in zip(steps, scores)]
 
 
 class Planner(abc.ABC):
@@ -82,6 +82,7 @@ class Planner(abc.ABC):
         stats.update(constraint_stats(problem))  # the cell's constraints, the scores' scope
         try:  # a single part needs no step
             steps = search(problem, scorer, stats) if len(problem.whole) >= 2 else []
+            stats.update(guard_stats(scorer, problem))  # the default scorer's guard, if it acted
         except Interlocked as exc:
             culprit, message = blocked_by(problem, exc.subset)  # an interlock or a constraint
             return PlanResult(PlanStatus.INFEASIBLE, self.name, problem.assembly.name,

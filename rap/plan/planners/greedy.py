@@ -175,7 +175,7 @@ class RapPlanner(_Greedy):
             high = [i for i, v in enumerate(p) if v >= self.high_probability]
             if high:
                 i = max(high, key=lambda j: (p[j], e[j], -j))
-                out[k] = PlanStep.of(c[i], "cnn", confidence=p[i])
+                out[k] = PlanStep.of(c[i], "model", confidence=p[i])
             else:
                 fallback.append(k)
         stats["fallbacks"] = stats.get("fallbacks", 0) + len(fallback)

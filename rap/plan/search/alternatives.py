@@ -21,7 +21,7 @@ distinct step sequences. Ties keep the first found (the candidates' order; the b
 
 Each alternative is a ``PlanResult`` (status ``FOUND``, the search's method and assembly): a
 step's ``score`` is the simulator's where the search knows it (``source`` ``sim``; ``free``: 1 by
-geometry), else None (``source`` ``cnn``, ``confidence`` the model's expected score);
+geometry), else None (``source`` ``model``, ``predicted`` the model's expected score);
 ``robustness`` the product of the step scores when all are known, else None. They are not
 annotated (no robot moves, intervals or reasons): ``rap.plan.planners.base.evaluate_steps`` then
 ``rap.plan.report.poses.annotate_plan`` make one a full plan, at the cost of simulating its
@@ -142,9 +142,9 @@ def _as_plan(run: SearchRun, plan: PlanResult, choice: dict) -> PlanResult:
     steps = {}
     for sub, op in choice.items():
         key = scores.key(op)
-        source = "free" if key in scores.free else "sim" if key in scores.simulated else "cnn"
+        source = "free" if key in scores.free else "sim" if key in scores.simulated else "model"
         steps[sub] = PlanStep.of(op, source, score=scores.simulated.get(key),
-                                 confidence=scores.predicted.get(key))
+                                 predicted=scores.predicted.get(key))
     ordered = tuple(assembly_order(steps, run.whole))
     known = [s.score for s in ordered]
     r = None if any(x is None for x in known) else float(math.prod(known))

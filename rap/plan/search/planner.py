@@ -198,9 +198,9 @@ class SearchPlanner(ExactMode, BeamMode, RefineLoop, Planner):
         steps = {}
         for sub, op in run.plan.items():
             k = scores.key(op)
-            steps[sub] = PlanStep.of(op, "sim" if k in scores.simulated else "cnn",
+            steps[sub] = PlanStep.of(op, "sim" if k in scores.simulated else "model",
                                      score=scores.simulated.get(k),
-                                     confidence=scores.predicted.get(k))
+                                     predicted=scores.predicted.get(k))
         # the refine loop's simulations (greedy's own are ``greedy_simulations``)
         stats["search_simulations"] = scores.simulations - (run.start.known if run.start else 0)
         stats["predicted_operations"] = len(scores.predicted)

@@ -66,7 +66,7 @@ def greedy_start(problem: PlanningProblem, scorer: ScorerProtocol, scores, stats
             expected, out, i = scorer.expected_scores(problem, flat), [], 0
             for c in cands:
                 j = argmax_first(expected[i:i + len(c)])
-                out.append(PlanStep.of(c[j], "cnn", confidence=float(expected[i + j])))
+                out.append(PlanStep.of(c[j], "model", predicted=float(expected[i + j])))
                 finished.add(c[j].moving | c[j].fixed)
                 i += len(c)
             return out

@@ -34,7 +34,8 @@
     "#c7c7c7", "#bcbd22", "#dbdb8d", "#17becf", "#9edae5"];
   const VIRIDIS = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
   const ROBUST = 0.95; // steps scored below it are marked, as in rap-farm's storyboard
-  const SOURCE_TEXT = { cnn: "model", sim: "simulator", random: "random", free: "free: no contact" };
+  const SOURCE_TEXT = { model: "model", cnn: "model", sim: "simulator", random: "random",
+    free: "free: no contact" };
   const PLAY_MS = 1400;
 
   // gen: bumped by every file and plan asked for, so that a late answer to an older one is dropped
@@ -481,9 +482,17 @@
     const failures = typeof doc.expected_failures === "number"
       ? `; expected failed steps ${doc.expected_failures.toFixed(2)}${tries}` +
         (weak.length ? `, weakest: step ${weak.join(", ")}` : "") : "";
+    // plan format 3: what the rollouts measured under the cell's errors, and the flagged steps
+    const seq = doc.sequence_success;
+    const flagged = doc.steps.map((st, k) => (st.execution && st.execution.below_budget ? k + 1 : 0))
+      .filter((k) => k > 0);
+    const measured = seq ? `; sequence success ${seq.rate.toFixed(3)} (95% CI ` +
+      `${seq.interval[0].toFixed(3)}-${seq.interval[1].toFixed(3)}, ${seq.rollouts} rollouts, ` +
+      `chosen by ${seq.chosen_by})` + (flagged.length ? `; tolerance below the cell's error ` +
+      `budget: step ${flagged.join(", ")}` : "") : "";
     $("plan-status").textContent = `${doc.method} plan of ${doc.assembly}: robustness R = ${r} ` +
-      `over ${doc.steps.length} steps${failures}${cell}, planned in ${doc.seconds.toFixed(2)} s` +
-      `${evaluated}; ${timing}`;
+      `over ${doc.steps.length} steps${measured}${failures}${cell}, planned in ` +
+      `${doc.seconds.toFixed(2)} s${evaluated}; ${timing}`;
     const tbody = $("steps").querySelector("tbody");
     tbody.textContent = "";
     doc.steps.forEach((st, k) => {
@@ -495,6 +504,10 @@
         const td = document.createElement("td");
         td.textContent = text;
         if (i === 4 && st.score !== null && st.score < ROBUST) td.className = "bad";
+        if (i === 0 && st.execution && st.execution.below_budget) {
+          td.className = "bad";
+          td.title = `tolerance ${st.execution.tolerance_mm} mm: below the cell's error budget`;
+        }
         tr.appendChild(td);
       }
       tr.addEventListener("click", () => { stop(); showStep(k); });
@@ -565,7 +578,12 @@
         (st.score !== null && st.score < ROBUST ? `, below ${ROBUST}: not robust` : "") +
         " (the simulator's robustness of this operation)"],
       ...(st.reason ? [["limited by", st.reason]] : []),
-      ["source", (SOURCE_TEXT[st.source] || st.source) + (st.source === "cnn"
+      ...(st.execution ? [["executed", `succeeds ${st.execution.success_when_reached === null ? "?"
+        : st.execution.success_when_reached.toFixed(3)} of the ${st.execution.reached} rollouts ` +
+        `that reach it; clearance ${st.execution.clearance_mm === null ? "none across"
+          : st.execution.clearance_mm + " mm"}; tolerance ${st.execution.tolerance_mm} mm` +
+        (st.execution.below_budget ? ": below the cell's error budget" : "")]] : []),
+      ["source", (SOURCE_TEXT[st.source] || st.source) + (st.source === "cnn" || st.source === "model"
         ? `: chosen on the model's score, P(high) = ${st.confidence === null ? "?" : st.confidence.toFixed(3)}`
         : st.source === "sim" ? ": chosen on the simulator's score" : ": chosen at random")],
     ];

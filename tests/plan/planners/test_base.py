@@ -104,7 +104,7 @@ def test_rap_takes_the_most_confident_high_candidate_without_simulating():
     r = RapPlanner(high_probability=0.5, fallback_optimism=1.0).solve(problem, scorer)
     assert r.stats["fallbacks"] == 0
     assert r.stats["sim_run"] == r.stats["eval_simulations"] == len(r.steps)  # evaluation only
-    assert all(s.source == "cnn" and s.confidence >= 0.5 for s in r.steps)
+    assert all(s.source == "model" and s.confidence >= 0.5 for s in r.steps)
     # one CNN batch per level of the decomposition; each subassembly's candidates all in it
     assert len(cnn.batches) == r.stats["levels"]
     whole = problem.candidates(problem.whole)

@@ -19,7 +19,7 @@ PARAMS = SimParams(trials=10)
 
 def first_candidate(problem, scorer, cands, stats):
     scorer.budget = Budget()  # the finish runs outside the spent budget
-    return [PlanStep.of(c[0], "cnn") for c in cands]
+    return [PlanStep.of(c[0], "model") for c in cands]
 
 
 def test_a_spent_budget_ends_greedy_without_a_finish_and_is_finished_with_one():

@@ -139,7 +139,7 @@ def test_alternatives_are_distinct_complete_plans_best_first(options):
         known = [s.score if s.score is not None else s.confidence for s in alt.steps]
         assert estimate == pytest.approx(math.prod(known), rel=1e-12) and estimate > 0
         for s in alt.steps:  # scored where simulated (or free), else the model's
-            assert (s.score is None) == (s.source == "cnn")
+            assert (s.score is None) == (s.source == "model")
         scored = all(s.score is not None for s in alt.steps)
         assert (alt.robustness is not None) == scored
 

@@ -66,7 +66,7 @@ def test_a_perfect_model_gives_exactly_the_optimum(name):
     assert found.robustness == pytest.approx(best.robustness)
     assert found.stats["predicted_robustness"] == pytest.approx(best.robustness)
     assert found.stats["search_simulations"] == 0  # no simulation while planning by default
-    assert all(s.source in ("cnn", "free") for s in found.steps)  # free: 1 by geometry
+    assert all(s.source in ("model", "free") for s in found.steps)  # free: 1 by geometry
     assert check_plan(problem.assembly, found.steps) == []
 
 
