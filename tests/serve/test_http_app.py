@@ -194,7 +194,7 @@ def test_an_interlocked_assembly_is_a_valid_question(service):
     for method in ("rap", "optimal"):
         status, doc, _ = _call(service, "/plan", _body(DOVETAIL, method=method))
         assert status == 200, doc
-        assert doc == {"format": 2, "assembly": "dovetail", "method": method, "feasible": False,
+        assert doc == {"format": 3, "assembly": "dovetail", "method": method, "feasible": False,
                        "interlocked": ["mortise", "tenon"],
                        "message": "no one-step translation separates the subassembly "
                                   "{mortise,tenon}: it is interlocked, so dovetail has no "

@@ -128,7 +128,7 @@ def test_interlocked_assembly_is_infeasible_and_names_the_parts():
         r = make_planner(m, samples=3).solve(problem, fake_scorer(TableCnn(lambda op: 0.9)))
         assert r.status is PlanStatus.INFEASIBLE
         assert set(r.interlocked) == {"frame", "plug"}
-        assert r.to_json() == {"format": 2, "assembly": "framed-hole", "method": m, "feasible": False,
+        assert r.to_json() == {"format": 3, "assembly": "framed-hole", "method": m, "feasible": False,
                                "interlocked": ["frame", "plug"], "message": r.message}
         assert r.message == interlocked_message("framed-hole", ["frame", "plug"])
 
