@@ -105,10 +105,13 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                                  f"({len(result.steps)} steps, assembly order)")
     level = f"{100 * result.confidence_level:.0f}% CI" if result.confidence_level else "CI"
     cnn = any(s.confidence is not None for s in result.steps)  # P(high) only where the CNN chose
+    ex = any(s.execution is not None for s in result.steps)  # format 3: measured by rollouts
     for col, kw in (("step", {"justify": "right"}), ("moving", {"overflow": "fold"}), ("fixed", {"overflow": "fold"}),
                     ("insertion", {"no_wrap": True}), ("score", {"justify": "right"}),
                     (level, {"no_wrap": True}), ("chosen by", {}),
                     *((("P(high)", {"justify": "right"}),) if cnn else ()),
+                    *((("reached: ok", {"justify": "right"}), ("tol. mm", {"justify": "right"}))
+                      if ex else ()),
                     ("limited by", {"overflow": "fold"})):
         table.add_column(col, **kw)
     for i, s in enumerate(result.steps, 1):
@@ -118,7 +121,7 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                       f"({s.direction[0] + 0.0:+.3f},{s.direction[1] + 0.0:+.3f})",
                       f"[red]{score}[/]" if bad else score, interval_text(s.score_interval),
                       s.source, *(("" if s.confidence is None else f"{s.confidence:.3f}",)
-                                  if cnn else ()), s.reason or "")
+                                  if cnn else ()), *(_executed(s) if ex else ()), s.reason or "")
     console.print(table)
     st = result.stats
     free = sum(s.source == "free" for s in result.steps)  # 1 by geometry, not simulated
@@ -187,6 +190,17 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
         console.print(f"insertion = the direction the moving parts travel to their place "
                       f"(removal = -insertion); poses and travel in {units}: see --out / --csv",
                       style="dim")
+
+
+def _executed(step) -> tuple[str, str]:
+    """A step's rollout columns: its success once reached, and its tolerance (red: below the
+    cell's error budget)."""
+    e = step.execution
+    if e is None:
+        return "", ""
+    ok = "?" if e.success_when_reached is None else f"{e.success_when_reached:.3f}"
+    tol = "" if e.tolerance_mm is None else f"{e.tolerance_mm:g}"
+    return ok, f"[red]{tol}[/]" if e.below_budget else tol
 
 
 def sequence_lines(result) -> list[str]:

@@ -97,8 +97,9 @@ def execute_command(
         from rap.robot.gif import camera
 
         frames, shoot = [], camera(program)
-    params = replace(DEFAULT_ARM_SIM, grasp_error_m=the_cell.errors.grasp_across_mm / 1000.0
-                     if grasp_error_mm is None else grasp_error_mm / 1000.0)
+    from rap.commands._rollouts import cell_errors
+
+    params = replace(DEFAULT_ARM_SIM, errors=cell_errors(the_cell, grasp_error_mm))
     out = run_arm(program, asm, trials=trials or 20, seed=seed, params=params, frames=frames,
                   camera=shoot)
     typer.echo(f"kinematic check: {len(program.waypoints)} waypoints reached by the "

@@ -3,7 +3,7 @@
 ``run_arm(program, assembly, trials, seed)`` executes ``program`` (``rap.robot.program``) ``trials``
 times in a pybullet world (DIRECT mode, no window) holding the cell's arm, the table and the
 parts, and reports per step how often it was reached, inserted or jammed, and the plan's success
-(``rap.robot.trials.Rate``). ``ArmSimParams`` holds every constant.
+(``rap.stats.Rate``). ``ArmSimParams`` holds every constant.
 
 Model.
 
@@ -30,9 +30,12 @@ Model.
   ``settle_s`` to come to rest, judged (**inserted** when within ``pos_tol`` of its extent, as
   the planner's success, and ``angle_tol_rad`` of its goal; else **jammed**), released, and the
   parts settle for ``settle_s`` under gravity.
-* **Grasp error** (``grasp_error_m``, 0 by default; ``execute --grasp-error-mm``): where the
-  cup took the part in the tray is off by ``U(-e, e)`` across the insertion, drawn per step: a
-  position-controlled arm's error (pick, calibration), which the force noise does not model.
+* **Errors** (``errors``, an ``ErrorModel``: none by default; ``execute`` passes the cell's
+  ``[errors]``, ``--grasp-error-mm`` its shorthand): where the cup took the part in the tray is
+  off across and along the insertion, and the arm lands off by its repeatability, drawn per step
+  by ``ErrorModel.offsets`` (the planar rollouts' draw, ``rap.execution``): a position-controlled
+  arm's error, which the force noise does not model. The grasp's angle is drawn but not applied
+  here (the cup holds the part square).
 * **Plan success**: every step inserted and, at the end, every part within the tolerance of its
   assembled place (nothing toppled by a later step).
 
@@ -50,10 +53,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rap.assembly import Assembly
+from rap.execution.error_model import ErrorModel
 from rap.robot.arm import set_joints
 from rap.robot.arms.ur_model import solver_for
 from rap.robot.program import Program
-from rap.robot.trials import Rate, rate
+from rap.stats import Rate, rate
 from rap.sim.params import DEFAULT_PARAMS
 from rap.sim.shapes import assembly_pieces
 
@@ -74,7 +78,7 @@ class ArmSimParams:
     settle_s: float = 0.25
     ik_every: int = 8  # physics steps between IK solves along the insertion (joints interpolated)
     noise_accel_m_s2: float = 9.81  # the noise's scale: eta x m x this
-    grasp_error_m: float = 0.0  # the part sits off the cup's place by U(-this, this) across
+    errors: ErrorModel = field(default_factory=ErrorModel.zero)  # module doc, "Errors"
     solver_iterations: int = 50
 
 
@@ -226,8 +230,9 @@ def _run_trial(program, assembly, p, rng, counts, frames, camera, make_solver):
             if program.frame.plane == "horizontal":
                 perp = np.cross(program.frame.depth_axis, step.insertion)
             perp = perp / (np.linalg.norm(perp) or 1.0)
-            if p.grasp_error_m > 0:  # where the cup took the part: off by up to this, across
-                offset = offset - rng.uniform(-p.grasp_error_m, p.grasp_error_m) * perp
+            if not p.errors.is_zero:  # along, across (mm) in the insertion's frame
+                along, across, _ = p.errors.offsets(rng, (1.0, 0.0), 1.0)
+                offset = offset - (across * perp + along * np.asarray(step.insertion)) / 1000.0
             for name in ("pick_above", "pick", "lift", "transit", "approach"):
                 reached &= _carry(scene, pid, offset, np.array(step.waypoint(name).position))
                 touched |= scene.arm_touches()

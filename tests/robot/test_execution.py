@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from rap.execution.error_model import ErrorModel
 from rap.robot.arm_sim import run_arm
 from rap.robot.cell import Cell
 from rap.robot.planar import run_planar
@@ -37,7 +38,7 @@ def test_a_grasp_error_beyond_the_tolerance_jams(stack):
     from rap.robot.arm_sim import DEFAULT_ARM_SIM
 
     plan, _, asm = stack
-    far = replace(DEFAULT_ARM_SIM, grasp_error_m=0.015)  # the tolerance: 5% of 40 mm
+    far = replace(DEFAULT_ARM_SIM, errors=ErrorModel(15.0, 0.0, 0.0, 0.0))  # tolerance: 2 mm
     out = run_arm(build_program(plan, asm, Cell()), asm, trials=2, seed=1, params=far)
     assert out.success.successes < 2 and sum(c.jammed for c in out.steps) >= 1
 

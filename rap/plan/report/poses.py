@@ -49,7 +49,8 @@ __all__ = ["RobotMove", "robot_move", "centroid", "annotate_plan", "plan_rows", 
 CSV_COLUMNS = ("step", "moving", "fixed", "insertion_x", "insertion_y", "start_x", "start_y",
                "approach_x", "approach_y", "goal_x", "goal_y", "travel", "centroid_x",
                "centroid_y", "units", "score", "score_low", "score_high", "source", "reason",
-               "weakest_rank")
+               "weakest_rank", "success_when_reached", "clearance_mm", "tolerance_mm",
+               "below_budget")
 
 
 def centroid(assembly: Assembly, ids: Sequence[str]) -> tuple[float, float]:
@@ -138,5 +139,9 @@ def plan_rows(result: PlanResult) -> list[dict]:
         row["travel"] = "" if r is None else tidy(r.travel)
         row["centroid_x"] = "" if r is None else tidy(r.centroid_goal[0])
         row["centroid_y"] = "" if r is None else tidy(r.centroid_goal[1])
+        ex = s.execution  # plan format 3: what the rollouts measured (empty without them)
+        for name in ("success_when_reached", "clearance_mm", "tolerance_mm", "below_budget"):
+            v = None if ex is None else getattr(ex, name)
+            row[name] = "" if v is None else v
         rows.append({c: row[c] for c in CSV_COLUMNS})
     return rows
