@@ -1,0 +1,59 @@
+"""The simulated arm against the planar rollouts' prediction, both under the shipped cell's errors
+(issue 46's "the arm with default errors"; docs/ROBOT.md, "Errors and rollouts").
+
+    python benchmarks/arm_vs_rollouts.py [--runs 50]
+
+For each robot plan of tests/robot/data (the stack, the tangram, the 22-brick wall): the planar
+sequence success predicted by rollouts (``rap.execution``, waves to +-0.05) and the success of
+``--runs`` executions on the Panda in pybullet (``rap.robot.arm_sim``) with the cell's errors,
+each with its 95% interval. Prints a Markdown table. Cost: the rollouts (seconds) and 0.2-2 s an
+arm run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+CASES = [("stack", "assemblies/cells/stack.json"), ("tangram", "assemblies/unseen/tangram.json"),
+         ("brick-wall-22", "assemblies/cells/brick-wall-22.json")]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=50)
+    args = ap.parse_args()
+    from rap.commands._rollouts import cell_errors, mm_per_unit
+    from rap.plan.scoring.local_simulator import LocalSimulator
+    from rap.robot.arm_sim import DEFAULT_ARM_SIM, run_arm
+    from rap.robot.cell import Cell
+    from rap.robot.inputs import load_plan_and_assembly
+    from rap.robot.planar import run_planar
+    from rap.robot.program import build_program
+
+    cell = Cell()
+    errors = cell_errors(cell)
+    sim = LocalSimulator(processes=2)
+    print("| plan | steps | R | rollouts predict [95%] | arm executed [95%] | difference |")
+    print("|---|---:|---:|---|---|---:|")
+    try:
+        for name, asm_path in CASES:
+            plan, _, asm = load_plan_and_assembly(ROOT / "tests/robot/data" / f"{name}.plan.json",
+                                                  ROOT / asm_path)
+            pred = run_planar(plan, asm, trials=None, seed=0, errors=errors,
+                              mm_per_unit=mm_per_unit(cell, asm), runner=sim).success
+            arm = run_arm(build_program(plan, asm, cell), asm, trials=args.runs, seed=0,
+                          params=replace(DEFAULT_ARM_SIM, errors=errors)).success
+            print(f"| {name} | {len(plan.steps)} | {plan.robustness:.3f} | {pred.text()} | "
+                  f"{arm.text()} | {arm.value - pred.value:+.3f} |", flush=True)
+    finally:
+        sim.close()
+
+
+if __name__ == "__main__":
+    main()
