@@ -93,7 +93,7 @@ def _scorer(score_fn=None):
 
 
 def _steps(result):
-    return [(s.moving, s.fixed, s.direction, s.score, s.source, s.confidence)
+    return [(s.moving, s.fixed, s.direction, s.score, s.source, s.predicted, s.confidence)
             for s in result.steps]
 
 
@@ -136,7 +136,7 @@ def test_alternatives_are_distinct_complete_plans_best_first(options):
     for alt, estimate in zip(alts, outcome.estimates):
         assert alt.found and alt.method == "search" and alt.assembly == plan.assembly
         assert check_plan(problem.assembly, alt.steps) == []
-        known = [s.score if s.score is not None else s.confidence for s in alt.steps]
+        known = [s.score if s.score is not None else s.predicted for s in alt.steps]
         assert estimate == pytest.approx(math.prod(known), rel=1e-12) and estimate > 0
         for s in alt.steps:  # scored where simulated (or free), else the model's
             assert (s.score is None) == (s.source == "model")

@@ -142,7 +142,7 @@ def test_trusted_predictions_are_never_simulated_and_the_rest_converges(trust):
     r = SearchPlanner(simulations=10_000, trust=trust, upper=0.0).solve(problem, s)
     assert r.status is PlanStatus.FOUND and check_plan(problem.assembly, r.steps) == []
     for step in r.steps:  # converged: each step simulated, or predicted at `trust` or more
-        assert (step.source == "sim") != (step.confidence >= trust)
+        assert (step.source == "sim") != (step.predicted >= trust)
     untrusted = SearchPlanner(simulations=10_000, upper=0.0).solve(problem, scorer(_noisy_model()))
     assert all(step.source == "sim" for step in untrusted.steps)
     assert r.stats["search_simulations"] <= untrusted.stats["search_simulations"]
