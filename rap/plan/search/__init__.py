@@ -1,1 +1,1 @@
-"""The default planner: search over the AND/OR graph on predicted scores, with simulations where the model's bounds say they can change the plan (``planner``), and its score state and bound on the optimum (``scores``). No ray, no torch."""
+"""The default planner: search over the AND/OR graph on predicted scores, with simulations where the model's bounds say they can change the plan (``planner``), its run state (``run``), its score state and bound on the optimum (``scores``), and its other complete plans (``alternatives``). No ray, no torch."""

@@ -27,14 +27,15 @@ annotated (no robot moves, intervals or reasons): ``rap.plan.planners.base.evalu
 ``rap.plan.report.poses.annotate_plan`` make one a full plan, at the cost of simulating its
 unsimulated steps.
 
-Cost: no simulation. Exact: the K-best DP visits at most the subassemblies the search's own DP
-could (fewer as the ``k``-th product rises), ``k`` x ``k`` combinations per candidate at most; a
-visited subassembly whose candidates the search neither predicted nor simulated is predicted in
+Cost: no simulation. Exact: the K-best DP visits only the subassemblies through which a tree can
+still enter the K best (more than the search's own DP, whose bar is the best product, not the
+K-th), ``k`` x ``k`` combinations per candidate at most; a visited subassembly whose candidates the search neither predicted nor simulated is predicted in
 one scorer batch (none with a batch-first scorer, which predicted the whole graph; one batch per
 such subassembly with the CNN alone). Beam: products over the beam's sequences. Measured with K =
-8 (20 trials, shared 2-core machine): 6-9 ms with the shipped scorer and no CNN call (hexagon,
-triangles, packing-s100, a beam on herringbone 18); with the CNN alone 1 ms to 2.0 s (packing:
-22 more CNN batches, 78 operations). No ray, no torch.
+8 (``SearchPlanner(alternatives=8).search`` against ``alternatives=0``, 20 trials,
+a 2-core machine shared with other work): 7-22 ms with the shipped scorer and no CNN call
+(hexagon, triangles, packing-s100, a beam on herringbone 18); with the CNN alone 7 ms to 3.5 s
+(packing-s100: 22 more CNN batches, 78 operations). No ray, no torch.
 """
 
 from __future__ import annotations
