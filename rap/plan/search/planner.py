@@ -127,7 +127,8 @@ class SearchPlanner(ExactMode, BeamMode, RefineLoop, Planner):
         Parameters: ``problem``, ``scorer`` as for ``solve``. Returns a ``SearchOutcome``:
         ``plan``, what ``solve`` returns (evaluated, annotated, with its bound), the same for
         every K; ``alternatives``, found plans (steps in assembly order; a step's score the
-        simulator's where the search knows it, else None), best first by ``estimates``, their
+        simulator's where the search knows it, else None and its ``predicted`` the model's
+        expected score), not annotated, best first by ``estimates``, their
         products of scores as the search knows them (simulated where known, else the model's
         expected score); empty when K is 0 or the plan is not found. Raises what ``solve``
         raises. The plan's bound and the alternatives are computed outside the scorer's budget,
