@@ -110,8 +110,7 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                     ("insertion", {"no_wrap": True}), ("score", {"justify": "right"}),
                     (level, {"no_wrap": True}), ("chosen by", {}),
                     *((("P(high)", {"justify": "right"}),) if cnn else ()),
-                    *((("reached: ok", {"justify": "right"}), ("tol. mm", {"justify": "right"}))
-                      if ex else ()),
+                    *((("tol. mm", {"justify": "right"}),) if ex else ()),
                     ("limited by", {"overflow": "fold"})):
         table.add_column(col, **kw)
     for i, s in enumerate(result.steps, 1):
@@ -192,15 +191,14 @@ def print_result(console, result, *, wall_s: float | None = None, title: str | N
                       style="dim")
 
 
-def _executed(step) -> tuple[str, str]:
-    """A step's rollout columns: its success once reached, and its tolerance (red: below the
-    cell's error budget)."""
+def _executed(step) -> tuple[str]:
+    """A step's rollout column: its tolerance (red: below the cell's error budget; its success
+    once reached is in the JSON and the CSV)."""
     e = step.execution
-    if e is None:
-        return "", ""
-    ok = "?" if e.success_when_reached is None else f"{e.success_when_reached:.3f}"
-    tol = "" if e.tolerance_mm is None else f"{e.tolerance_mm:g}"
-    return ok, f"[red]{tol}[/]" if e.below_budget else tol
+    if e is None or e.tolerance_mm is None:
+        return ("",)
+    tol = f"{e.tolerance_mm:.2g}"
+    return (f"[red]{tol}[/]" if e.below_budget else tol,)
 
 
 def sequence_lines(result) -> list[str]:

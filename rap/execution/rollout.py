@@ -12,7 +12,11 @@ exactly in the gripper. A rollout executes the whole plan once in the robustness
   on for ``SETTLE_S`` (the arm finishes its motion) and the parts, off the body by their grasp,
   must come to rest within the same tolerance of their goal (``pos_tol`` of the moving extent,
   ``angle_tol_rad``); where they rest becomes their place for the later steps (``carry``);
-* a rollout fails at its first failed step; later steps are not tried.
+* a rollout fails at its first failed step; later steps are not tried;
+* a **free** step (its moving parts touch no fixed part along the insertion or at the goal,
+  exact: ``rap.geometry.ndbg.is_free_operation``, the scorer's rule) is not simulated, as it is
+  not scored: its parts land off their goal by the grasp's draw alone, and succeed when that lies
+  within the tolerance.
 
 Seeds: rollout ``i``'s step ``k`` draws its error and its noise from
 ``SeedSequence(root_seed, spawn_key=(i, k))`` alone. Rollouts are run in **chunks** of consecutive
@@ -105,9 +109,36 @@ def _part_pose(rec_pose, scene, grasp) -> Pose:
     return pivot, off, float(ang + gang)
 
 
-def _within(pose: Pose, scene, params: SimParams) -> bool:
+def _free_steps(assembly: Assembly, steps) -> list[bool]:
+    from fractions import Fraction
+
+    from rap.geometry.contacts import meeting_pairs
+    from rap.geometry.ndbg import is_free_operation, ndbg_of
+
+    ndbg, meeting = ndbg_of(assembly), meeting_pairs(assembly)
+    out = []
+    for op in steps:
+        d = op.exact_direction if op.exact_direction is not None else op.direction
+        out.append(is_free_operation(ndbg, meeting, op.moving, op.fixed,
+                                     (-Fraction(d[0]), -Fraction(d[1]))))
+    return out
+
+
+def _landed(assembly: Assembly, op: Operation, params: SimParams, grasp) -> tuple[Pose, float]:
+    """A free step's pose (its parts off their goal by the grasp) and its tolerance radius."""
+    from rap.sim.outline import assembly_outlines
+    from rap.sim.placement import placement
+    from rap.sim.shapes import area_centroid
+
+    pieces = assembly_outlines(assembly, params.shape_tolerance, params.shape_pieces)
+    _, cx, cy = area_centroid([pc for i in sorted(op.moving) for pc in pieces[i]])
+    radius = params.pos_tol * placement(assembly, op, params.start_gap).moving_extent
+    return ((cx, cy), (grasp[0], grasp[1]), float(grasp[2])), radius
+
+
+def _within(pose: Pose, scene, params: SimParams, radius: float | None = None) -> bool:
     (ox, oy), ang = pose[1], pose[2]
-    tol = params.pos_tol * scene.moving_extent / scene.scale
+    tol = params.pos_tol * scene.moving_extent / scene.scale if radius is None else radius
     ang = (ang + math.pi) % (2 * math.pi) - math.pi
     return ox * ox + oy * oy < tol * tol and abs(ang) < params.angle_tol_rad
 
@@ -124,11 +155,26 @@ def run_chunk(assembly: Assembly, plan: RolloutPlan, root_seed: int, first: int,
     poses: list[dict[str, Pose]] = [{} for _ in range(count)]
     failed = [-1] * count
     alive = list(range(count))
+    free = _free_steps(assembly, plan.steps)
     for k, op in enumerate(plan.steps):
         if not alive:
             break
         rngs = [step_rng(root_seed, first + j, k) for j in alive]
         grasps = [plan.errors.offsets(r, op.direction, plan.mm_per_unit) for r in rngs]
+        if free[k]:
+            survivors = []
+            for j, g in zip(alive, grasps):
+                pose, radius = _landed(assembly, op, params, g)
+                if not _within(pose, None, params, radius):
+                    failed[j] = k
+                    continue
+                survivors.append(j)
+                if plan.carry:
+                    for p in op.moving:
+                        old = poses[j].get(p)
+                        poses[j][p] = pose if old is None else compose_poses(old, pose)
+            alive = survivors
+            continue
         layouts = [TrialLayout({p: poses[j][p] for p in op.moving | op.fixed if p in poses[j]}, g)
                    for j, g in zip(alive, grasps)]
         scene = build_scene(assembly, op, params, layouts=layouts)

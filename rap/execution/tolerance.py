@@ -13,9 +13,10 @@ the error grows): about four probes of ``2 x TRIALS_PER_SIDE`` trials. A value i
 the grid's resolution; 0 when even the smallest error costs more than a tenth, or the step never
 succeeds.
 
-When nothing lies across the insertion at the goal (``rap.execution.clearance`` says None), a part
-off by ``e`` lands off by ``e``: the tolerance is the simulator's success radius (``pos_tol`` of
-the moving parts' extent), without simulation.
+When nothing lies across the insertion at the goal (``rap.execution.clearance`` says None), or the
+step is free (it touches nothing along the insertion or at the goal), a part off by ``e`` lands
+off by ``e``: the tolerance is the simulator's success radius (``pos_tol`` of the moving parts'
+extent), without simulation (``across_free``).
 
 Cost: about ``5 x 2 x TRIALS_PER_SIDE`` single trials (three operations' labelling).
 """

@@ -129,7 +129,7 @@ def _step_executions(problem: PlanningProblem, result: PlanResult, m: SequenceMe
         tol = None
         if options.tolerances:
             tol = tolerance(problem.assembly, op, problem.params, options.mm_per_unit, seed,
-                            problem.key(op), across_free=c is None)
+                            problem.key(op), across_free=c is None or problem.is_free(op))
         out.append(StepExecution(
             reached=m.step_tried[k], interval=None if reached is None else (reached.low, reached.high),
             success_when_reached=None if reached is None else reached.value,

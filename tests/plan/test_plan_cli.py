@@ -85,7 +85,7 @@ def test_search_simulates_the_untrusted_steps_of_its_plan(tmp_path):
             "--trials", "8", "--out", out, tmp_path=tmp_path)
     assert p.returncode == 0, p.stderr
     steps = json.loads(out.read_text())["steps"]
-    assert steps and all((s["source"] == "sim") != (s["confidence"] >= 0.9) for s in steps)
+    assert steps and all((s["source"] == "sim") != (s["predicted"] >= 0.9) for s in steps)
     for value in ("1.5", "0"):
         bad = run(src, "--trust", value, tmp_path=tmp_path)
         assert bad.returncode == 2 and "--trust" in bad.stderr and "Traceback" not in bad.stderr
