@@ -56,13 +56,15 @@ def exact_json(value: Any) -> str:
 
 
 def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
-              options: dict | None = None, constraints=None, loaded=None) -> bytes:
+              options: dict | None = None, constraints=None, loaded=None,
+              rollouts: bool = True) -> bytes:
     """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``) or a
     drawing (.dxf, .svg: imported with the default options, as ``load_assembly`` does, unless
     ``loaded``, the ``Assembly`` the caller already read from it, is given: a drawing is
     imported once a command);
     ``options``: the method's planner options (``rap.serve.api.PLANNER_OPTIONS``), those not None;
-    ``constraints``: the cell's ``rap.plan.cell.constraints.CellConstraints`` (sent when active)."""
+    ``constraints``: the cell's ``rap.plan.cell.constraints.CellConstraints`` (sent when active);
+    ``rollouts``: False asks the service not to measure the plan by rollouts."""
     path = Path(assembly_path)
     if path.suffix.lower() in (".dxf", ".svg"):  # a drawing: sent as the assembly it imports to
         from rap.io import assembly_to_json, load_assembly
@@ -83,6 +85,8 @@ def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
         body["options"] = options
     if constraints is not None and constraints.active:
         body["constraints"] = constraints.to_json()
+    if not rollouts:
+        body["rollouts"] = False
     return exact_json(body).encode("utf-8")
 
 

@@ -186,7 +186,7 @@ def plan_command(
         check_cell(cell, [asm])
         if server is not None:
             result, on_ray = _plan_by_service(assembly, asm, method, seed, options, server,
-                                              token, progress, cell), False
+                                              token, progress, cell, rollouts), False
             settings["cache"] = None
         else:
             root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
@@ -235,7 +235,7 @@ def _check_server_settings(settings: dict, options: dict) -> None:
 
 
 def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, server: str, token,
-                     console, constraints=None):
+                     console, constraints=None, rollouts: bool = True):
     """Step 2, with ``--server``: the service plans; the method's options travel with the
     request. The client's errors name the parameter ``server``: here, the flag. ``console``:
     anything with ``status(text)`` (the command's progress ``Activity``, or a rich console)."""
@@ -244,7 +244,8 @@ def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, serv
     from rap.plan.report.result import PlanResult
 
     sent = {o.name: options[o.name] for o in METHODS[method].declared() if o.service and o.cli}
-    body = plan_body(assembly, method, seed, sent, constraints=constraints, loaded=asm)
+    body = plan_body(assembly, method, seed, sent, constraints=constraints, loaded=asm,
+                     rollouts=rollouts)
     with flags("server"), console.status(f"planning {asm.name} with {method} at {server} ..."):
         try:
             doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))

@@ -1,4 +1,5 @@
-"""``rap-farm serve`` end to end: one service (a subprocess on a free loopback port) per module.
+"""``rap-farm serve`` end to end: one service (a subprocess on a free loopback port; fixture
+``service`` of tests/serve/conftest.py, shared with test_page.py).
 
 Plans over HTTP checked by the swept-area plan checker and against in-process plans, 16 concurrent
 requests, malformed and invalid requests (4xx, one line, the service keeps answering), an
@@ -12,8 +13,6 @@ from __future__ import annotations
 import json
 import os
 import secrets
-import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -32,7 +31,7 @@ from rap.io import load_assembly
 from rap.plan.report.result import PlanResult
 from rap.plan.report.validate import check_plan
 
-from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
+from tests.farm.conftest import ASSEMBLIES, ROOT
 from tests.fuzz import plan_bodies
 
 pytestmark = [pytest.mark.ray, pytest.mark.slow]
@@ -44,12 +43,6 @@ DOVETAIL = {"name": "dovetail", "parts": [  # tests/geometry/fixtures.py DOVETAI
     {"id": "mortise", "polygon": [[0, 0], [10, 0], [10, 4], [6, 4], [7, 1], [3, 1], [4, 4], [0, 4]]},
     {"id": "tenon", "polygon": [[3, 1], [7, 1], [6, 4], [10, 4], [10, 6], [0, 6], [0, 4], [4, 4]]},
 ]}
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _call(url: str, path: str, body: bytes | None = None, token: str | None = TOKEN,
@@ -66,53 +59,13 @@ def _call(url: str, path: str, body: bytes | None = None, token: str | None = TO
 
 
 def _body(doc: dict | str, **extra) -> bytes:
+    """A ``POST /plan`` body; without rollouts unless asked (these tests compare plans with the
+    planner's in this process; ``test_the_answer_carries_sequence_success`` asks for them)."""
+    extra = {"rollouts": False, **extra}
     if isinstance(doc, str):  # raw assembly text, spliced as is
         return ("{\"assembly\": " + doc + "".join(f", {json.dumps(k)}: {json.dumps(v)}"
                                                  for k, v in extra.items()) + "}").encode()
     return json.dumps({"assembly": doc, **extra}).encode()
-
-
-@pytest.fixture(scope="module")
-def service(tmp_path_factory):
-    """``rap-farm serve`` on a free loopback port with a token; its base URL."""
-    tmp = tmp_path_factory.mktemp("serve")
-    port = _free_port()
-    env = dict(ray_env(), RAP_CACHE=str(tmp / "cache.json"))
-    env.pop("RAP_FARM_TOKEN", None)
-    log = open(tmp / "serve.log", "w")
-    proc = subprocess.Popen([sys.executable, "-m", "rap.cli", "serve", "--port", str(port),
-                             "--trials", str(TRIALS), "--token", TOKEN, "--workers", "2"],
-                            cwd=tmp, env=env, stdout=log, stderr=subprocess.STDOUT,
-                            start_new_session=True)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + 150
-        while True:
-            if proc.poll() is not None:
-                pytest.fail(f"rap-farm serve exited {proc.returncode}: "
-                            f"{(tmp / 'serve.log').read_text()[-2000:]}")
-            try:
-                if _call(url, "/health", timeout=5)[0] == 200:
-                    break
-            except (urllib.error.URLError, OSError, ValueError):
-                pass
-            if time.monotonic() > deadline:
-                pytest.fail("rap-farm serve did not become healthy in 150 s")
-            time.sleep(1)
-        yield url
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
-        log.close()
-    text = (tmp / "serve.log").read_text()
-    assert proc.returncode == 0, text[-2000:]
-    # Serve's shutdown noise ("(raylet) Task ServeController.graceful_shutdown failed ...") stays
-    # off the console: the last line is the service's own
-    assert "(raylet)" not in text and text.endswith("stopping the planning service ...\n"), text
 
 
 def _local_plan(assembly, method: str, seed: int, processes: int = 1) -> dict:
@@ -219,6 +172,7 @@ BAD_REQUESTS = [
     ("too many parts", _body({"parts": [{"id": f"p{i}", "polygon": [[i, 0], [i + 1, 0], [i, 1]]}
                                         for i in range(1001)]}), 413),  # past the input bounds
     ("budget zero", _body(DOVETAIL, budget_s=0), 400),
+    ("rollouts not a boolean", _body(DOVETAIL, rollouts="yes"), 400),
     ("budget not a number", _body(DOVETAIL, budget_s="60"), 400),
     ("budget over the cap", _body(DOVETAIL, budget_s=601), 413),
 ]
@@ -339,7 +293,7 @@ def test_plan_server_prints_and_writes_what_the_service_planned(service, tmp_pat
     src = ASSEMBLIES / "hexagon.json"
     out, pic = tmp_path / "plan.json", tmp_path / "plan.png"
     p = _cli(src, "--server", service, "--token", TOKEN, "--seed", "5", "--out", out,
-             "--picture", pic, cwd=tmp_path)
+             "--picture", pic, "--no-rollouts", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     assert "robustness R" in p.stdout and "hexagon: search plan" in p.stdout  # the default method
     status, doc, _ = _call(service, "/plan", _body(json.loads(src.read_text()), seed=5))
@@ -356,6 +310,18 @@ def test_plan_server_prints_and_writes_what_the_service_planned(service, tmp_pat
     p = _cli(dove, "--server", service, cwd=tmp_path)  # no token
     assert p.returncode == 2 and "not authorised" in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
+
+
+def test_the_answer_carries_sequence_success_measured_on_the_pool(service):
+    """``"rollouts": true`` (the API's default): the plan measured by rollouts on the service's
+    simulation pool, each step with its execution (plan format 3)."""
+    status, doc, _ = _call(service, "/plan", _body(json.loads(
+        (ASSEMBLIES / "hexagon.json").read_text()), seed=5, rollouts=True))
+    assert status == 200 and doc["format"] == 3
+    seq = doc["sequence_success"]
+    assert seq["rollouts"] >= 100 and seq["interval"][0] <= seq["rate"] <= seq["interval"][1]
+    assert seq["chosen_by"] == "sequence success" and len(seq["candidates"]) >= 2
+    assert all(s["execution"]["reached"] >= 1 for s in doc["steps"][:1])
 
 
 def test_a_small_budget_gets_the_searchs_best_plan_and_greedy_budget_spent(service):
