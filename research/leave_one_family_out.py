@@ -1,6 +1,6 @@
 """Leave-one-family-out evaluation of the default scorer (issue 45), and the guard's statistics.
 
-    python -m research.leave_one_family_out scorer [--rows 2000] [--rounds 400]
+    python -m research.leave_one_family_out scorer [--rows 2000] [--rounds 400] [--families a,b]
     python -m research.leave_one_family_out plans [--families arch,dovetail] [--seeds 0] [--max-parts 8]
     python -m research.leave_one_family_out guard-stats [--out rap/data/default_model.scorer.guard.json]
 
@@ -50,7 +50,8 @@ def _metrics(labels, prob, expected, scores) -> dict:
             "mae": round(float(np.abs(expected - scores).mean()), 4)}
 
 
-def scorer_table(rows: int, rounds: int, seed: int = 0) -> list[dict]:
+def scorer_table(rows: int, rounds: int, families: list[str] | None = None,
+                 seed: int = 0) -> list[dict]:
     import research.descriptor_scorer as ds
     from rap.model.inference.descriptor_model import DescriptorModel
     from rap.model.inference.operations import OperationPredictor
@@ -67,6 +68,9 @@ def scorer_table(rows: int, rounds: int, seed: int = 0) -> list[dict]:
     for fam in sorted(set(store.family.tolist()) - {"reference"}):
         t = time.perf_counter()
         held = np.flatnonzero(store.family == fam)
+        if families and fam not in families:  # drawn anyway: the same rows as a full run's
+            rng.choice(held, min(rows, len(held)), replace=False)
+            continue
         tr = np.flatnonzero(store.family != fam)
         import lightgbm
 
@@ -165,6 +169,7 @@ def main(argv=None) -> None:
     a1 = sub.add_parser("scorer")
     a1.add_argument("--rows", type=int, default=2000)
     a1.add_argument("--rounds", type=int, default=400)
+    a1.add_argument("--families", default="", help="comma-separated (default: every family)")
     a2 = sub.add_parser("plans")
     a2.add_argument("--families", default="arch,dovetail,puzzle,bond")
     a2.add_argument("--seeds", default="0")
@@ -176,7 +181,7 @@ def main(argv=None) -> None:
     a3.add_argument("--reference", type=int, default=60000)
     a = ap.parse_args(argv)
     if a.what == "scorer":
-        scorer_table(a.rows, a.rounds)
+        scorer_table(a.rows, a.rounds, [f for f in a.families.split(",") if f])
     elif a.what == "plans":
         plan_table(a.families.split(","), [int(s) for s in a.seeds.split(",")], a.max_parts)
     else:

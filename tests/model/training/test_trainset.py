@@ -45,3 +45,13 @@ def test_a_sample_of_a_dataset_too_large_for_memory_names_max_rows(tiny_dataset)
     assert str(err.value) == ("max_rows 10: needs the dataset in memory (144 rows exceed "
                               "max_memory_mb 0)")
     assert in_memory_store(str(tiny_dataset), None, max_memory_mb=0.0) is None  # streamed
+
+
+def test_held_out_shape_kinds_never_enter_a_training_selection():
+    from rap.geometry.families import HELD_OUT
+    from rap.model.training.trainset import training_selection
+
+    for family in (None, "hub"):
+        sel, _ = training_selection("datasets/corpus", None, None, family)
+        assert HELD_OUT <= set(sel.exclude_families)
+        assert family is None or family in sel.exclude_families
