@@ -23,6 +23,8 @@ Cost: about ``5 x 2 x TRIALS_PER_SIDE`` single trials (three operations' labelli
 
 from __future__ import annotations
 
+from typing import Protocol, Sequence, runtime_checkable
+
 import numpy as np
 
 from rap.assembly import Assembly
@@ -32,11 +34,20 @@ from rap.sim.params import SimParams
 from rap.sim.placement import placement
 from rap.sim.simulator import build_scene, run_trials
 
-__all__ = ["tolerance", "GRID_MM", "LEVEL", "TRIALS_PER_SIDE", "success_radius_mm"]
+__all__ = ["tolerance", "GRID_MM", "LEVEL", "TRIALS_PER_SIDE", "success_radius_mm",
+           "ToleranceRunner"]
 
 GRID_MM = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 7.5, 10.0)
 LEVEL = 0.9
 TRIALS_PER_SIDE = 30
+
+
+@runtime_checkable
+class ToleranceRunner(Protocol):
+    """Runs ``tolerance(*job)`` for each job (each the positional arguments of ``tolerance``),
+    results in the order of ``jobs``: the local simulator's workers do (the steps in parallel)."""
+
+    def run_tolerances(self, jobs: Sequence[tuple]) -> list[float]: ...
 
 
 def success_radius_mm(assembly: Assembly, operation: Operation, params: SimParams,
@@ -59,7 +70,7 @@ def _successes(assembly, operation, params, mm_per_unit, e_mm: float, seed_key) 
 
 
 def tolerance(assembly: Assembly, operation: Operation, params: SimParams, mm_per_unit: float,
-              root_seed: int, key: str = "", *, across_free: bool = False) -> float:
+              root_seed: int, key: str = "", across_free: bool = False) -> float:
     """The step's tolerance in mm (module doc). ``key``: the operation's content key (the seeds'
     source beside the root seed); ``across_free``: nothing lies across at the goal (no
     simulation)."""

@@ -40,7 +40,7 @@ from rap.execution.clearance import clearance
 from rap.execution.error_model import DEFAULT_ERRORS, ErrorModel
 from rap.execution.rollout import ChunkOutcome, RolloutPlan, chunks
 from rap.execution.sequence import HALF_WIDTH, WAVES, InProcess, RolloutRunner, measure, tally
-from rap.execution.tolerance import tolerance
+from rap.execution.tolerance import ToleranceRunner, tolerance
 from rap.plan.problem import PlanningProblem
 from rap.plan.report.execution import SequenceReport, StepExecution
 from rap.plan.report.result import PlanResult
@@ -118,18 +118,20 @@ def _wins_runs(plan: RolloutPlan, outcomes: list[ChunkOutcome]) -> tuple[int, in
     return wins, runs
 
 
-def _step_executions(problem: PlanningProblem, result: PlanResult, m: SequenceMeasure,
-                     options: ExecutionOptions, seed: int) -> tuple:
+def _step_executions(problem: PlanningProblem, result: PlanResult, m,
+                     options: ExecutionOptions, seed: int, runner) -> tuple:
     out = []
     budget = options.errors.budget_across_mm
-    for k, step in enumerate(result.steps):
-        op = step.to_operation()
+    ops = [s.to_operation() for s in result.steps]
+    gaps = [clearance(problem.assembly, op) for op in ops]
+    tols = [None] * len(ops)
+    if options.tolerances:  # the steps in parallel where the runner can (the local workers)
+        jobs = [(problem.assembly, op, problem.params, options.mm_per_unit, seed, problem.key(op),
+                 c is None or problem.is_free(op)) for op, c in zip(ops, gaps)]
+        tols = (runner.run_tolerances(jobs) if isinstance(runner, ToleranceRunner)
+                else [tolerance(*j) for j in jobs])
+    for k, (op, c, tol) in enumerate(zip(ops, gaps, tols)):
         reached = m.step_rate(k)
-        c = clearance(problem.assembly, op)
-        tol = None
-        if options.tolerances:
-            tol = tolerance(problem.assembly, op, problem.params, options.mm_per_unit, seed,
-                            problem.key(op), across_free=c is None or problem.is_free(op))
         out.append(StepExecution(
             reached=m.step_tried[k], interval=None if reached is None else (reached.low, reached.high),
             success_when_reached=None if reached is None else reached.value,
@@ -172,7 +174,7 @@ def execute_report(problem: PlanningProblem, result: PlanResult, runner: Rollout
                 (lambda d, t: on_progress(f"rollouts: {d} of up to {t}")))
     if on_progress is not None:
         on_progress("steps' clearance and tolerance")
-    steps = _step_executions(problem, picked, m, options, seed)
+    steps = _step_executions(problem, picked, m, options, seed, runner)
     report = SequenceReport(
         m.success.value, (m.success.low, m.success.high), m.success.successes, m.rollouts,
         {**options.errors.to_dict(), "carry": options.carry}, m_seed,

@@ -74,6 +74,12 @@ def _rollout_task(args):  # runs in a worker process
     return run_chunk(*args)
 
 
+def _tolerance_task(args) -> float:  # runs in a worker process
+    from rap.execution.tolerance import tolerance
+
+    return tolerance(*args)
+
+
 def _worker_init(warmed=None) -> None:
     """Worker processes leave Ctrl-C to the parent, which stops them (no traceback per worker),
     and end quietly on SIGTERM (the parent's ``close``, or a signal to the whole process group):
@@ -183,6 +189,22 @@ class LocalSimulator:
                 self.close()
                 self.prestarted, self.processes = False, 1
         return [run_chunk(*j) for j in jobs]
+
+    def run_tolerances(self, jobs: Sequence[tuple]) -> list[float]:
+        """``rap.execution.tolerance.tolerance(*job)`` for each job, over the worker processes when
+        there are two or more (``ToleranceRunner``); results in the order of ``jobs``."""
+        from rap.execution.tolerance import tolerance
+
+        pool = self._pool() if self.prestarted or len(jobs) >= 2 else None
+        if pool is not None:
+            from concurrent.futures.process import BrokenProcessPool
+
+            try:
+                return list(pool.map(_tolerance_task, jobs))
+            except BrokenProcessPool:
+                self.close()
+                self.prestarted, self.processes = False, 1
+        return [tolerance(*j) for j in jobs]
 
     def _run(self, jobs: list) -> list[CachedScore]:
         pool = self._pool() if self.prestarted or len(jobs) >= self.min_batch else None
