@@ -55,3 +55,18 @@ def test_arch_has_a_keystone_and_curved_tabs_are_polylines():
     assert {"key", "pierL", "pierR", "base"} <= {p.id for p in arch.parts}
     puzzle = generate("puzzle", 0)
     assert max(len(p.outer) for p in puzzle.parts) > 20  # tabs sampled at every integer step
+
+
+def test_rap_farm_generate_makes_them_and_lists_them_as_held_out(tmp_path):
+    from typer.testing import CliRunner
+
+    from rap.cli import app
+    from rap.io import load_assembly
+
+    out = tmp_path / "arch.json"
+    res = CliRunner().invoke(app, ["generate", "arch", "--seed", "0", "--pairs", "3", "--kind",
+                                   "arch", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert len(load_assembly(out)) == 10
+    listed = CliRunner().invoke(app, ["generate", "list"], env={"COLUMNS": "250"})
+    assert listed.exit_code == 0 and "held out" in listed.output and "dovetail" in listed.output
