@@ -119,6 +119,7 @@ class CascadeScorer:
         self._tables_lock = threading.Lock()
         self._verdicts: dict = {}
         self._local = threading.local()  # the verdict of the assembly this thread scored last
+        self._cnn_bounds = None  # the CNN's calibration, read on the first unfamiliar assembly
         from rap.model.data.descriptors import DESCRIPTORS, columns
 
         names = tuple(getattr(cnn.predictor, "descriptors", ()) or ())
@@ -172,17 +173,16 @@ class CascadeScorer:
                                "CNN's score bounds"}
 
     def active_bounds(self):
-        """The bounds of the assembly this thread scored last (``GuardedBounds``)."""
+        """The bounds of the assembly this thread scored last (``GuardedBounds``): the CNN's
+        shipped calibration (read once) on an unfamiliar one, else the descriptor model's."""
         v = getattr(self._local, "verdict", None)
-        if v is not None and v["unfamiliar"]:
+        if self._bounds is not None and (v is None or not v["unfamiliar"]):
+            return self._bounds
+        if self._cnn_bounds is None:
             from rap.model.calibration import load
 
-            return load()
-        if self._bounds is None:
-            from rap.model.calibration import load
-
-            return load()
-        return self._bounds
+            self._cnn_bounds = load()
+        return self._cnn_bounds
 
     @property
     def batch_first(self) -> bool:
