@@ -4,9 +4,10 @@
     python benchmarks/arm_vs_rollouts.py [--runs 50]
 
 For each robot plan of tests/robot/data (the stack, the tangram, the 22-brick wall): the planar
-sequence success predicted by rollouts (``rap.execution``, waves to +-0.05) and the success of
-``--runs`` executions on the Panda in pybullet (``rap.robot.arm_sim``) with the cell's errors,
-each with its 95% interval. Prints a Markdown table. Cost: the rollouts (seconds) and 0.2-2 s an
+sequence success predicted by rollouts (``rap.execution``, waves to +-0.05) with the scores' force
+noise (the cell's default) and without it (``[errors] force_noise = false``: a stiff
+position-controlled arm, position errors only), and the success of ``--runs`` executions on the
+Panda in pybullet (``rap.robot.arm_sim``) with the cell's errors, each with its 95% interval. Prints a Markdown table. Cost: the rollouts (seconds) and 0.2-2 s an
 arm run.
 """
 
@@ -39,18 +40,20 @@ def main() -> None:
     cell = Cell()
     errors = cell_errors(cell)
     sim = LocalSimulator(processes=2)
-    print("| plan | steps | R | rollouts predict [95%] | arm executed [95%] | difference |")
-    print("|---|---:|---:|---|---|---:|")
+    print("| plan | steps | R | rollouts, force noise | rollouts, position errors only | "
+          "arm executed | arm - position-only |")
+    print("|---|---:|---:|---|---|---|---:|")
     try:
         for name, asm_path in CASES:
             plan, _, asm = load_plan_and_assembly(ROOT / "tests/robot/data" / f"{name}.plan.json",
                                                   ROOT / asm_path)
-            pred = run_planar(plan, asm, trials=None, seed=0, errors=errors,
-                              mm_per_unit=mm_per_unit(cell, asm), runner=sim).success
+            pred, stiff = (run_planar(plan, asm, trials=None, seed=0, errors=e,
+                                      mm_per_unit=mm_per_unit(cell, asm), runner=sim).success
+                           for e in (errors, replace(errors, force_noise=False)))
             arm = run_arm(build_program(plan, asm, cell), asm, trials=args.runs, seed=0,
                           params=replace(DEFAULT_ARM_SIM, errors=errors)).success
             print(f"| {name} | {len(plan.steps)} | {plan.robustness:.3f} | {pred.text()} | "
-                  f"{arm.text()} | {arm.value - pred.value:+.3f} |", flush=True)
+                  f"{stiff.text()} | {arm.text()} | {arm.value - stiff.value:+.3f} |", flush=True)
     finally:
         sim.close()
 

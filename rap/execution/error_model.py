@@ -19,6 +19,11 @@ Defaults (``DEFAULT_ERRORS``), documented in docs/ROBOT.md:
   under the cup; the error is that of the pick (a part in a tray slot, picked blind). Measure your
   cell's and set it in ``[errors]``.
 
+``force_noise`` (True by default) keeps the simulator's actuation noise in the rollouts, the
+compliant controller under force noise that the step scores measure; False models a stiff,
+position-controlled arm, whose only errors are the position errors above (rollouts then run with
+``eta = 0``: what the simulated arm does, ``benchmarks/arm_vs_rollouts.py``).
+
 ``zero()`` turns every error off (the control: rollouts then measure carried noise alone).
 Lengths in mm, the angle in degrees; ``offsets`` converts to assembly units with ``mm_per_unit``.
 """
@@ -44,8 +49,11 @@ class ErrorModel:
     grasp_along_mm: float = 0.5
     grasp_angle_deg: float = 0.5
     repeatability_mm: float = 0.1
+    force_noise: bool = True
 
     def __post_init__(self):
+        if not isinstance(self.force_noise, bool):
+            raise ValueError(f"force_noise must be true or false, not {self.force_noise!r}")
         for k in ERROR_KEYS:
             v = getattr(self, k)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) \
@@ -58,6 +66,7 @@ class ErrorModel:
 
     @property
     def is_zero(self) -> bool:
+        """No position error (the force noise is the simulator's, not this model's)."""
         return not any(getattr(self, k) for k in ERROR_KEYS)
 
     @property

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -150,7 +150,7 @@ def run_chunk(assembly: Assembly, plan: RolloutPlan, root_seed: int, first: int,
     if first % CHUNK or not 1 <= count <= CHUNK:
         raise ValueError(f"a chunk is up to {CHUNK} rollouts from a multiple of {CHUNK}")
     t0 = time.perf_counter()
-    params = plan.params
+    params = plan.params if plan.errors.force_noise else replace(plan.params, eta=0.0)
     settle = max(1, int(round(SETTLE_S / (params.dt_s * params.control_substeps))))
     poses: list[dict[str, Pose]] = [{} for _ in range(count)]
     failed = [-1] * count

@@ -102,6 +102,7 @@ class ErrorsSection:
     grasp_along_mm: float = DEFAULT_ERRORS.grasp_along_mm
     grasp_angle_deg: float = DEFAULT_ERRORS.grasp_angle_deg
     repeatability_mm: float | None = None
+    force_noise: bool = True
 
 
 @dataclass(frozen=True)
@@ -137,7 +138,8 @@ class Cell:
         rep = e.repeatability_mm
         if rep is None:
             rep = round(ARM_REGISTRY[self.robot.arm].repeatability_m * 1000.0, 9)
-        return ErrorModel(e.grasp_across_mm, e.grasp_along_mm, e.grasp_angle_deg, rep)
+        return ErrorModel(e.grasp_across_mm, e.grasp_along_mm, e.grasp_angle_deg, rep,
+                          e.force_noise)
 
     def unit_metres(self, units: str) -> float:
         """Metres per unit of an assembly in ``units`` (``assembly.unit_m`` for unknown ones)."""
@@ -191,6 +193,7 @@ _CHECKS = {
     "columns": lambda w, v: _integer(w, v, 0, 1000),
     "samples_per_segment": lambda w, v: _integer(w, v, 2, 1000),
     "yaw_deg": _number, "height_m": _number,
+    "force_noise": lambda w, v: v if isinstance(v, bool) else _choice(w, v, ("true", "false")),
     **{k: (lambda w, v: _number(w, v, at_least=0.0))
        for k in ("grasp_across_mm", "grasp_along_mm", "grasp_angle_deg", "repeatability_mm")},
 }

@@ -31,3 +31,18 @@ def test_the_budget_and_bad_values():
     assert DEFAULT_ERRORS.budget_across_mm == pytest.approx(0.6)
     with pytest.raises(ValueError, match="repeatability_mm"):
         ErrorModel(repeatability_mm=-1.0)
+
+
+def test_the_cell_names_the_controller_and_a_stiff_arm_rolls_out_without_force_noise():
+    from rap.execution.rollout import RolloutPlan, run_chunk
+    from rap.robot.cell import cell_from_toml
+    from rap.sim.params import DEFAULT_PARAMS
+
+    from tests.execution.cases import wall_prefix
+
+    stiff = cell_from_toml("[errors]\nforce_noise = false\n").error_model()
+    assert not stiff.force_noise and stiff.repeatability_mm == pytest.approx(0.1)
+    asm, steps = wall_prefix(3)
+    exact = ErrorModel(0.0, 0.0, 0.0, 0.0, force_noise=False)  # deterministic: no error at all
+    out = run_chunk(asm, RolloutPlan(steps, DEFAULT_PARAMS, exact, 2.0), 0, 0, 10)
+    assert out.failed_at == (-1,) * 10
