@@ -143,6 +143,14 @@ def _within(pose: Pose, scene, params: SimParams, radius: float | None = None) -
     return ox * ox + oy * oy < tol * tol and abs(ang) < params.angle_tol_rad
 
 
+def _carry(poses: dict, op: Operation, pose: Pose) -> None:
+    """The moving parts of ``op`` now lie at ``pose`` (after where they lay, if they were moved
+    before with a subassembly)."""
+    for p in op.moving:
+        old = poses.get(p)
+        poses[p] = pose if old is None else compose_poses(old, pose)
+
+
 def run_chunk(assembly: Assembly, plan: RolloutPlan, root_seed: int, first: int,
               count: int) -> ChunkOutcome:
     """Rollouts ``first .. first + count - 1`` of ``plan`` (module doc); ``first`` is a chunk's
@@ -170,9 +178,7 @@ def run_chunk(assembly: Assembly, plan: RolloutPlan, root_seed: int, first: int,
                     continue
                 survivors.append(j)
                 if plan.carry:
-                    for p in op.moving:
-                        old = poses[j].get(p)
-                        poses[j][p] = pose if old is None else compose_poses(old, pose)
+                    _carry(poses[j], op, pose)
             alive = survivors
             continue
         layouts = [TrialLayout({p: poses[j][p] for p in op.moving | op.fixed if p in poses[j]}, g)
@@ -192,9 +198,7 @@ def run_chunk(assembly: Assembly, plan: RolloutPlan, root_seed: int, first: int,
                 continue
             survivors.append(j)
             if plan.carry:
-                for p in op.moving:
-                    old = poses[j].get(p)
-                    poses[j][p] = pose if old is None else compose_poses(old, pose)
+                _carry(poses[j], op, pose)
         alive = survivors
     return ChunkOutcome(first, tuple(failed), time.perf_counter() - t0)
 

@@ -179,44 +179,33 @@ class LocalSimulator:
         from rap.execution.rollout import run_chunk
 
         jobs = [(assembly, plan, root_seed, first, count) for first, count in work]
-        pool = self._pool() if self.prestarted or len(jobs) >= 2 else None
-        if pool is not None:
-            from concurrent.futures.process import BrokenProcessPool
-
-            try:
-                return list(pool.map(_rollout_task, jobs))
-            except BrokenProcessPool:
-                self.close()
-                self.prestarted, self.processes = False, 1
-        return [run_chunk(*j) for j in jobs]
+        return self._mapped(_rollout_task, jobs, len(jobs) >= 2, run_chunk)
 
     def run_tolerances(self, jobs: Sequence[tuple]) -> list[float]:
         """``rap.execution.tolerance.tolerance(*job)`` for each job, over the worker processes when
         there are two or more (``ToleranceRunner``); results in the order of ``jobs``."""
         from rap.execution.tolerance import tolerance
 
-        pool = self._pool() if self.prestarted or len(jobs) >= 2 else None
-        if pool is not None:
-            from concurrent.futures.process import BrokenProcessPool
-
-            try:
-                return list(pool.map(_tolerance_task, jobs))
-            except BrokenProcessPool:
-                self.close()
-                self.prestarted, self.processes = False, 1
-        return [tolerance(*j) for j in jobs]
+        return self._mapped(_tolerance_task, list(jobs), len(jobs) >= 2, tolerance)
 
     def _run(self, jobs: list) -> list[CachedScore]:
-        pool = self._pool() if self.prestarted or len(jobs) >= self.min_batch else None
+        return self._mapped(_simulate_task, jobs, len(jobs) >= self.min_batch,
+                            lambda *j: _simulate_one(self._simulate, *j))
+
+    def _mapped(self, task: Callable, jobs: list, enough: bool, here: Callable) -> list:
+        """``task`` over ``jobs`` on the worker processes when there are ``enough`` of them (or
+        the workers were prestarted), else ``here(*job)`` in this process; results in the order
+        of ``jobs``. A pool that breaks (a worker killed) is dropped and the jobs run here."""
+        pool = self._pool() if self.prestarted or enough else None
         if pool is not None:
             from concurrent.futures.process import BrokenProcessPool
 
             try:
-                return list(pool.map(_simulate_task, jobs))
+                return list(pool.map(task, jobs))
             except BrokenProcessPool:
                 self.close()
                 self.prestarted, self.processes = False, 1
-        return [_simulate_one(self._simulate, *j) for j in jobs]
+        return [here(*j) for j in jobs]
 
     def close(self) -> None:
         """Stop the worker processes (if any were started). Workers still loading the simulator
