@@ -13,7 +13,9 @@ batch then goes to them.
 The workers are a ``concurrent.futures.ProcessPoolExecutor`` over a fork context that keeps the
 processes it starts (``LocalSimulator.workers``), so that ``close()`` can stop workers still
 loading the simulator with public calls only (``Process.kill``, then ``shutdown(wait=True)``;
-``kill_workers`` on Python 3.14 and later).
+``kill_workers`` on Python 3.14 and later), also when a signal interrupts the close; Ctrl-C and
+SIGTERM wait until the forks are done; a worker whose parent has gone without closing it
+(SIGKILL) ends by itself within a second.
 
 ``simulate_chunks(problem, chunks)``: the chunks of sequential tests (``research.variants.sequential``),
 each ``(op, index, trials)`` one run of ``trials`` trials from ``chunk_seed(problem.seed(op),
@@ -35,6 +37,9 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import sys
 import threading
 from typing import Callable, Sequence
@@ -80,19 +85,28 @@ def _tolerance_task(args) -> float:  # runs in a worker process
     return tolerance(*args)
 
 
-def _worker_init(warmed=None) -> None:
+def _exit_with(parent: int) -> None:  # a worker's daemon thread
+    """End this worker once process ``parent``, which forked it, has gone without stopping it
+    (SIGKILL, or a signal between a fork and the pool's record of it): an orphan would otherwise
+    wait for work for good."""
+    import time
+
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os._exit(0)
+
+
+def _worker_init(warmed=None, parent: int | None = None) -> None:
     """Worker processes leave Ctrl-C to the parent, which stops them (no traceback per worker),
     and end quietly on SIGTERM (the parent's ``close``, or a signal to the whole process group):
-    the handler forked from the CLI (SIGTERM as Ctrl-C) is not theirs; with a shared counter
-    ``warmed``, load the compiled simulator now rather than at the first operation (at a lower
-    priority), then count this worker as warm."""
-    import signal
-
+    the handler forked from the CLI (SIGTERM as Ctrl-C) is not theirs; they end when ``parent``
+    does; with a shared counter ``warmed``, load the compiled simulator now rather than at the
+    first operation (at a lower priority), then count this worker as warm."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if parent is not None:
+        threading.Thread(target=_exit_with, args=(parent,), daemon=True).start()
     if warmed is not None:
-        import os
-
         os.nice(WARM_NICE)
         from rap.sim.simulator import warm_up
 
@@ -103,6 +117,48 @@ def _worker_init(warmed=None) -> None:
 
 def _noop() -> None:  # submitted once to make a fork pool start its workers
     return None
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Ctrl-C and SIGTERM held back while the pool forks (in the main thread, where Python runs
+    signal handlers), then raised again: a handler that raises (the CLI's KeyboardInterrupt) would
+    otherwise run inside an at-fork hook (logging's), where the exception is printed and dropped,
+    and the command would go on, deaf to the signal (its handler then ignores a second one)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    held = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    held = {s: h for s, h in held.items() if h is not None}  # None: not set from Python
+    for s in held:
+        signal.signal(s, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        for s, handler in held.items():
+            signal.signal(s, handler)
+        for s in dict.fromkeys(caught):
+            signal.raise_signal(s)
+
+
+def _stop_workers(ex, workers: list) -> None:
+    """Kill the processes ``workers`` of executor ``ex`` and shut it down (again: harmless)."""
+    kill_workers = getattr(ex, "kill_workers", None)  # Python >= 3.14
+    if kill_workers is not None:
+        kill_workers()
+        return
+    for proc in workers:
+        # SIGKILL, not SIGTERM: a worker forked a moment ago may not have run its initializer
+        # yet and still carry the parent's SIGTERM handler; seen once to leave a worker alive
+        # and close() waiting on it for good (a test run). A process made but not started (an
+        # interrupt between the two) has no pid and nothing to stop.
+        if proc.pid is not None:
+            proc.kill()
+    # The executor's manager thread sees them gone and joins them (the same process objects):
+    # waiting for it, rather than joining them here as well, leaves none that reads as alive
+    # (two threads reaping one child race: waitpid's ECHILD).
+    ex.shutdown(wait=True, cancel_futures=True)
 
 
 def _fork_context(started: list):
@@ -140,7 +196,11 @@ class LocalSimulator:
         self._warmed = None  # shared count of prestarted workers that have loaded the simulator
         self.prestarted = bool(prestart) and self._can_fork()
         if self.prestarted:
-            self._pool().submit(_noop)  # a fork pool starts all its workers at the first submit
+            try:
+                self._pool()  # forks the workers now
+            except BaseException:  # interrupted while forking (SIGTERM as Ctrl-C): none is left
+                self.close()
+                raise
 
     def loading(self) -> bool:
         """True while prestarted workers are still loading the simulator (the caller then leaves
@@ -166,7 +226,9 @@ class LocalSimulator:
                     from rap.sim import simulator  # noqa: F401  (imported once, before the fork)
                 self._executor = ProcessPoolExecutor(self.processes, mp_context=ctx,
                                                      initializer=_worker_init,
-                                                     initargs=(self._warmed,))
+                                                     initargs=(self._warmed, os.getpid()))
+                with _signals_held():  # a fork pool starts all its workers at the first submit
+                    self._executor.submit(_noop)
             return self._executor
 
     def simulate_many(self, problem: PlanningProblem, ops: Sequence[Operation]) -> list[CachedScore]:
@@ -209,24 +271,18 @@ class LocalSimulator:
 
     def close(self) -> None:
         """Stop the worker processes (if any were started). Workers still loading the simulator
-        are killed rather than waited for: they hold nothing that must be kept."""
+        are killed rather than waited for: they hold nothing that must be kept. A close
+        interrupted halfway (Ctrl-C, or SIGTERM as Ctrl-C) stops them all before the interrupt
+        goes on."""
         with self._lock:
             ex, self._executor = self._executor, None
             workers, self.workers = self.workers, []
         if ex is None:
             return
-        kill_workers = getattr(ex, "kill_workers", None)  # Python >= 3.14
-        if kill_workers is not None:
-            kill_workers()
-            return
-        for proc in workers:
-            # SIGKILL, not SIGTERM: a worker forked a moment ago may not have run its initializer
-            # yet and still carry the parent's SIGTERM handler; seen once to leave a worker alive
-            # and close() waiting on it for good (a test run)
-            proc.kill()
-        # The executor's manager thread sees them gone and joins them (the same process objects):
-        # waiting for it, rather than joining them here as well, leaves none that reads as alive
-        # (two threads reaping one child race: waitpid's ECHILD).
-        ex.shutdown(wait=True, cancel_futures=True)
+        try:
+            _stop_workers(ex, workers)
+        except BaseException:
+            _stop_workers(ex, workers)
+            raise
 
 

@@ -84,3 +84,41 @@ def test_an_injected_simulator_is_never_forked():
     assert not sim.prestarted and sim.workers == []
     assert [s.score for s in sim.simulate_many(problem, ops)] == [1.0] * len(ops)
     assert calls == ops
+
+
+_SIGTERM_AT_FORK: list[int] = []  # while not empty, each fork in this process sends it SIGTERM
+
+
+def _sigterm_if_armed() -> None:
+    if _SIGTERM_AT_FORK:
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+os.register_at_fork(after_in_parent=_sigterm_if_armed)
+
+
+def test_sigterm_while_the_workers_are_forked_stops_them_and_is_raised(monkeypatch):
+    """SIGTERM as the CLI makes it (a handler that raises KeyboardInterrupt) arriving while the
+    pool forks: inside an at-fork hook (logging's; here the one that sends it) the exception
+    would be printed and dropped, and the command would go on. It is raised once the forks are
+    done, and no worker is left."""
+    import rap.plan.scoring.local_simulator as local
+
+    made = []
+    real = local._fork_context
+    monkeypatch.setattr(local, "_fork_context", lambda started: made.append(started)
+                        or real(started))
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    before = signal.signal(signal.SIGTERM, interrupt)
+    _SIGTERM_AT_FORK.append(1)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            LocalSimulator(processes=2, prestart=True)
+    finally:
+        _SIGTERM_AT_FORK.clear()
+        signal.signal(signal.SIGTERM, before)
+    (workers,) = made
+    assert len(workers) == 2 and all(not w.is_alive() for w in workers)
