@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from rap.dataset import SCHEMA, decode_images, read_meta
+from tests.farm.conftest import ray_local  # noqa: F401  (a fixture: the shared local Ray)
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT / "datasets" / "corpus"
@@ -60,7 +61,7 @@ def test_rap_dataset_reads_the_slice_and_the_metadata(slice_files):
 
 
 @pytest.mark.ray
-def test_ray_data_reads_the_slice(slice_files):
+def test_ray_data_reads_the_slice(slice_files, ray_local):
     import ray
 
     started = not ray.is_initialized()

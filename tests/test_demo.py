@@ -22,6 +22,7 @@ def flat(text: str) -> str:
 
 @pytest.mark.ray
 @pytest.mark.slow
+@pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_demo_runs_the_small_pipeline_then_the_shipped_model_against_sim_only(tmp_path):
     from rap.commands.plan import default_model_path
     from rap.model.network.checkpoint import load_checkpoint

@@ -51,6 +51,7 @@ def test_the_tutorial_names_what_it_teaches():
 
 
 @pytest.mark.slow
+@pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_the_tutorials_commands_run(tmp_path):
     import rap.plan
 

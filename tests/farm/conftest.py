@@ -1,4 +1,5 @@
-"""Fixtures of the farm tests: one small local Ray per module, stand-ins, tiny configurations.
+"""Fixtures of the farm tests: one small local Ray shared by the modules that use it one after
+another, stand-ins, tiny configurations.
 
 Ray tests are marked ``@pytest.mark.ray`` (select: ``pytest -m ray``; skip: ``-m "not ray"``).
 Every Ray started here gets a throwaway auth token through ``RAY_AUTH_TOKEN`` (token
@@ -23,6 +24,7 @@ os.environ.setdefault("RAY_AUTH_TOKEN", secrets.token_hex(32))
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
 
 from rap.farm.actors import Backend  # noqa: E402
+from tests.shared_resources import shared  # noqa: E402
 
 ASSEMBLIES = ROOT / "assemblies"
 
@@ -47,19 +49,23 @@ def ray_env() -> dict:
     return env
 
 
-@pytest.fixture(scope="module")
-def ray_local():
-    """One small local Ray (2 CPUs) shared by the tests of a module."""
+def _start_ray():
     import ray
 
     if ray.is_initialized():
         ray.shutdown()
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR",
              runtime_env={"env_vars": {"PYTHONPATH": str(ROOT)}})
-    try:
-        yield ray
-    finally:
-        ray.shutdown()
+    return ray
+
+
+@pytest.fixture(scope="module")
+def ray_local():
+    """One small local Ray (2 CPUs), shared by the consecutive tests that use it: started by the
+    first, shut down after the last (tests/shared_resources.py; tests/conftest.py runs the tests
+    that use it one after another). A test that shuts it down gets a new one at the next module."""
+    return shared("ray_local", _start_ray, lambda ray: ray.shutdown(),
+                  alive=lambda ray: ray.is_initialized())
 
 
 @pytest.fixture

@@ -4,7 +4,8 @@ work kept and a rerun resumes; ``serve`` drains and exits 0.
 
 Each command runs in a subprocess and gets SIGTERM once it is observably mid-run (a committed
 shard, an epoch's resume file, its simulation processes, its progress line): no timed assertion.
-The commands that start Ray or torch take 20-40 s each on two busy cores (marked ``slow``).
+The commands that start Ray or torch take 20-40 s each on two busy cores (marked ``slow`` and
+``e2e``: run by CI and ``python -m pytest -m e2e``, not by the default run).
 """
 
 from __future__ import annotations
@@ -110,6 +111,7 @@ def children(pid: int) -> list[int]:
 
 
 @pytest.mark.slow  # a Ray or torch start or two: 20-40 s
+@pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_label_sigterm_keeps_the_rows_and_a_rerun_completes(tmp_path):
     out, hold = tmp_path / "ds", tmp_path / "hold"
     hold.touch()  # each worker labels two operations, then waits: the run is held mid-run
@@ -151,6 +153,7 @@ def small_dataset(tmp_path_factory):
 
 
 @pytest.mark.slow  # a Ray or torch start or two: 20-40 s
+@pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_train_sigterm_keeps_the_epochs_and_the_same_command_resumes(small_dataset, tmp_path):
     model = tmp_path / "m.pt"
     resume = tmp_path / "m.pt.resume"
@@ -179,6 +182,7 @@ def test_evaluate_sigterm_exits_130_in_one_line(small_dataset, tmp_path):
 
 
 @pytest.mark.slow  # a Ray or torch start or two: 20-40 s
+@pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_experiment_sigterm_exits_130_in_one_line(small_dataset, tmp_path):
     """SIGTERM once the experiment has planned the first of its three assemblies (on Ray, with
     its pool of simulation actors)."""
@@ -197,6 +201,7 @@ def test_experiment_sigterm_exits_130_in_one_line(small_dataset, tmp_path):
 
 
 @pytest.mark.slow  # a Ray or torch start or two: 20-40 s
+@pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_serve_sigterm_stops_taking_requests_and_exits_0(tmp_path):
     port = free_port()
     env = dict(ray_env(), RAP_CACHE=str(tmp_path / "cache.json"))

@@ -23,7 +23,7 @@ from rap.dataset import open_dataset
 from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
 from tests.farm.fake_cluster import RAY, free_port
 
-pytestmark = pytest.mark.ray
+pytestmark = [pytest.mark.ray, pytest.mark.e2e]  # not in the default run: python -m pytest -m e2e
 
 
 def alive_nodes(address: str, env: dict) -> int:

@@ -4,6 +4,7 @@ from dataclasses import replace
 
 import pytest
 
+from tests.farm.conftest import ray_local  # noqa: F401  (a fixture, used by name)
 from tests.model.model_fixtures import FAST_TRAIN, TINY_MODEL
 from rap.model.evaluation.cross_validation import cross_validate, fold_specs, sequential_folds
 
@@ -12,10 +13,9 @@ pytestmark = pytest.mark.ray
 
 
 @pytest.fixture(scope="module")
-def cluster():
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
-    yield
-    ray.shutdown()
+def cluster(ray_local):
+    """The small local Ray (2 CPUs) of tests/farm/conftest.py, shared with the farm's tests."""
+    return ray_local
 
 
 def test_two_folds_in_parallel_match_in_process(cluster, tiny_dataset, tmp_path):

@@ -1,4 +1,5 @@
-"""``rap-farm serve`` end to end: one service (a subprocess on a free loopback port) per module.
+"""``rap-farm serve`` end to end: one service (a subprocess on a free loopback port; fixture
+``service`` of tests/serve/conftest.py, shared with test_page.py).
 
 Plans over HTTP checked by the swept-area plan checker and against in-process plans, 16 concurrent
 requests, malformed and invalid requests (4xx, one line, the service keeps answering), an
@@ -12,8 +13,6 @@ from __future__ import annotations
 import json
 import os
 import secrets
-import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -32,24 +31,20 @@ from rap.io import load_assembly
 from rap.plan.report.result import PlanResult
 from rap.plan.report.validate import check_plan
 
-from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
+from tests.farm.conftest import ASSEMBLIES, ROOT
 from tests.fuzz import plan_bodies
 
 pytestmark = [pytest.mark.ray, pytest.mark.slow]
 
 TRIALS = 8
-TOKEN = secrets.token_urlsafe(24)
+# one token per process however often this module is imported (pytest imports it as
+# serve.test_http_app, the service fixture and test_page.py as tests.serve.test_http_app)
+TOKEN = os.environ.setdefault("RAP_TEST_SERVICE_TOKEN", secrets.token_urlsafe(24))
 BAD = ROOT / "tests" / "data" / "bad"
 DOVETAIL = {"name": "dovetail", "parts": [  # tests/geometry/fixtures.py DOVETAIL
     {"id": "mortise", "polygon": [[0, 0], [10, 0], [10, 4], [6, 4], [7, 1], [3, 1], [4, 4], [0, 4]]},
     {"id": "tenon", "polygon": [[3, 1], [7, 1], [6, 4], [10, 4], [10, 6], [0, 6], [0, 4], [4, 4]]},
 ]}
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _call(url: str, path: str, body: bytes | None = None, token: str | None = TOKEN,
@@ -73,49 +68,6 @@ def _body(doc: dict | str, **extra) -> bytes:
         return ("{\"assembly\": " + doc + "".join(f", {json.dumps(k)}: {json.dumps(v)}"
                                                  for k, v in extra.items()) + "}").encode()
     return json.dumps({"assembly": doc, **extra}).encode()
-
-
-@pytest.fixture(scope="module")
-def service(tmp_path_factory):
-    """``rap-farm serve`` on a free loopback port with a token; its base URL."""
-    tmp = tmp_path_factory.mktemp("serve")
-    port = _free_port()
-    env = dict(ray_env(), RAP_CACHE=str(tmp / "cache.json"))
-    env.pop("RAP_FARM_TOKEN", None)
-    log = open(tmp / "serve.log", "w")
-    proc = subprocess.Popen([sys.executable, "-m", "rap.cli", "serve", "--port", str(port),
-                             "--trials", str(TRIALS), "--token", TOKEN, "--workers", "2"],
-                            cwd=tmp, env=env, stdout=log, stderr=subprocess.STDOUT,
-                            start_new_session=True)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + 150
-        while True:
-            if proc.poll() is not None:
-                pytest.fail(f"rap-farm serve exited {proc.returncode}: "
-                            f"{(tmp / 'serve.log').read_text()[-2000:]}")
-            try:
-                if _call(url, "/health", timeout=5)[0] == 200:
-                    break
-            except (urllib.error.URLError, OSError, ValueError):
-                pass
-            if time.monotonic() > deadline:
-                pytest.fail("rap-farm serve did not become healthy in 150 s")
-            time.sleep(1)
-        yield url
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
-        log.close()
-    text = (tmp / "serve.log").read_text()
-    assert proc.returncode == 0, text[-2000:]
-    # Serve's shutdown noise ("(raylet) Task ServeController.graceful_shutdown failed ...") stays
-    # off the console: the last line is the service's own
-    assert "(raylet)" not in text and text.endswith("stopping the planning service ...\n"), text
 
 
 def _local_plan(assembly, method: str, seed: int, processes: int = 1) -> dict:

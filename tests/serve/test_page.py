@@ -1,11 +1,12 @@
 """The planning page at ``/`` of ``rap-farm serve`` in a real headless browser, and the endpoints
 behind it (``POST /import``, ``POST /inspect``, ``POST /export``), and ``/docs`` offline.
 
-The service is the one of tests/serve/test_http_app.py (a subprocess on a free loopback port, with a
-token); the browser is Debian's ``chromium`` driven by Playwright (``executable_path``: Playwright's
-own browser download does not work offline). Every request the browser makes to another host than
-the service is refused and recorded, and none may be made. Where Playwright or chromium is missing
-the browser tests skip and say so (``apt-get install chromium``, ``pip install -e .[test]``).
+The service is the one test_http_app.py uses (tests/serve/conftest.py: a subprocess on a free
+loopback port, with a token); the browser is Debian's ``chromium`` driven by Playwright
+(``executable_path``: Playwright's own browser download does not work offline). Every request the
+browser makes to another host than the service is refused and recorded, and none may be made.
+Where Playwright or chromium is missing the browser tests skip and say so (``apt-get install
+chromium``, ``pip install -e .[test]``).
 
 Screenshots are test artefacts under tmp_path; ``RAP_PAGE_SCREENSHOT=docs/planning-page.png``
 writes the README's screenshot too.
@@ -31,7 +32,7 @@ from rap.plan.report.result import PlanResult, PlanStep
 from rap.plan.report.validate import check_plan
 
 from tests.farm.conftest import ASSEMBLIES, ROOT
-from tests.serve.test_http_app import DOVETAIL, TOKEN, _body, _call, _same_plan, service  # noqa: F401
+from tests.serve.test_http_app import DOVETAIL, TOKEN, _body, _call, _same_plan
 
 pytestmark = [pytest.mark.ray, pytest.mark.slow]
 
