@@ -343,7 +343,7 @@ def test_the_page_shows_the_plan_the_api_gives(page, service, tmp_path):
     method, seed = "rap", 5
     doc = _plan_in_page(page, service, TANGRAM, method, seed, tmp_path)
     status, api_doc, _ = _call(service, "/plan", _body(json.loads(TANGRAM.read_text()),
-                                                       method=method, seed=seed))
+                                                       method=method, seed=seed, rollouts=True))
     assert status == 200 and _same_plan(doc, api_doc)
     asm = load_assembly(TANGRAM)
     assert check_plan(asm, PlanResult.from_json(doc).steps) == []
@@ -424,7 +424,8 @@ def test_the_page_plans_a_dxf_drawing_as_the_api_does(page, service, tmp_path):
     assert status == 200, imported
     assert imported["name"] == "pegs" and len(imported["parts"]) == 7
     doc = _plan_in_page(page, service, dxf, "search", 11, tmp_path)
-    status, api_doc, _ = _call(service, "/plan", _body(imported, method="search", seed=11))
+    status, api_doc, _ = _call(service, "/plan", _body(imported, method="search", seed=11,
+                                                       rollouts=True))  # as the page asks
     assert status == 200 and _same_plan(doc, api_doc)
     _check_storyboard(page, doc, tmp_path)
     seconds = float(page.get_attribute("body", "data-file-to-plan-s"))
