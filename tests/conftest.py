@@ -2,9 +2,9 @@
 pytest-xdist groups of the tests; shared resources stopped once no test needs them.
 
 The default run (pyproject.toml: ``-n 2 --dist loadgroup``) spreads the tests over two
-pytest-xdist workers by group: the tests marked ``ray`` are one group, run one after another by
-one worker, so that two Ray clusters never run at once; every other test module is a group of its
-own (its module fixtures are built once). Among the tests marked ``ray`` those on the shared local
+pytest-xdist workers by group: the tests on Ray (marked ``ray``) are one group, run one after
+another by one worker, so that two Ray clusters never run at once; every other test module is a
+group of its own (its module fixtures are built once). Among the tests marked ``ray`` those on the shared local
 Ray (fixture ``ray_local``, tests/farm/conftest.py) run first, one after another, so that it
 starts once (tests/shared_resources.py).
 
@@ -50,31 +50,27 @@ def run_cli(capsys):
     return run
 
 
-def _on_ray(item) -> bool:
-    return item.get_closest_marker("ray") is not None
-
-
-def _group(item) -> str:
-    return "ray" if _on_ray(item) else item.nodeid.split("::")[0]
-
-
 def pytest_collection_modifyitems(config, items):
-    """The tests marked ``ray`` in one block where the first of them was (first the modules with a
-    test on ``ray_local``, in their order); in a pytest-xdist worker, the groups written for the
-    controller."""
-    on_ray = [i for i in items if _on_ray(i)]
+    """The tests on Ray in one block where the first of them was (first the modules with a test
+    on ``ray_local``, in their order); in a pytest-xdist worker, the groups written for the
+    controller. On Ray: marked ``ray``, except a test of a module on ``ray_local`` that does not
+    use it (such a module's tests start no Ray of their own)."""
+    shares = {getattr(i, "module", None) for i in items if "ray_local" in i.fixturenames}
+    on_ray = {i for i in items if i.get_closest_marker("ray") is not None
+              and ("ray_local" in i.fixturenames or getattr(i, "module", None) not in shares)}
     if on_ray:
-        first = items.index(on_ray[0])
-        rest = [i for i in items if not _on_ray(i)]
-        shares = {i.module for i in on_ray if "ray_local" in i.fixturenames}
-        block = sorted(on_ray, key=lambda i: i.module not in shares)  # stable: modules stay whole
+        first = next(n for n, i in enumerate(items) if i in on_ray)
+        rest = [i for i in items if i not in on_ray]
+        block = sorted((i for i in items if i in on_ray),  # stable: modules stay whole
+                       key=lambda i: getattr(i, "module", None) not in shares)
         items[:] = rest[:first] + block + rest[first:]
     note_items(items)
     path = getattr(config, "workerinput", {}).get("rap_test_groups")
     if path:  # every worker writes the same; whole or not at all
+        groups = {i.nodeid: "ray" if i in on_ray else i.nodeid.split("::")[0] for i in items}
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path))
         with os.fdopen(fd, "w") as fh:
-            json.dump({item.nodeid: _group(item) for item in items}, fh)
+            json.dump(groups, fh)
         os.replace(tmp, path)
 
 

@@ -5,7 +5,8 @@ work kept and a rerun resumes; ``serve`` drains and exits 0.
 Each command runs in a subprocess and gets SIGTERM once it is observably mid-run (a committed
 shard, an epoch's resume file, its simulation processes, its progress line): no timed assertion.
 The commands that start Ray or torch take 20-40 s each on two busy cores (marked ``slow`` and
-``e2e``: run by CI and ``python -m pytest -m e2e``, not by the default run).
+``e2e``: run by CI and ``python -m pytest -m e2e``, not by the default run); those that start Ray
+are marked ``ray`` (tests/conftest.py runs them one at a time).
 """
 
 from __future__ import annotations
@@ -25,7 +26,6 @@ from rap.dataset import open_dataset
 from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
 from tests.farm.fake_cluster import free_port
 
-pytestmark = pytest.mark.ray
 
 INTERRUPTED = "rap-farm: interrupted; committed work is kept"
 NOISE = ("Traceback", "Exception ignored", "*** SIGTERM", "(raylet)", "Error in atexit")
@@ -110,6 +110,7 @@ def children(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.ray
 @pytest.mark.slow  # a Ray or torch start or two: 20-40 s
 @pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_label_sigterm_keeps_the_rows_and_a_rerun_completes(tmp_path):
@@ -181,6 +182,7 @@ def test_evaluate_sigterm_exits_130_in_one_line(small_dataset, tmp_path):
     clean(text)
 
 
+@pytest.mark.ray
 @pytest.mark.slow  # a Ray or torch start or two: 20-40 s
 @pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_experiment_sigterm_exits_130_in_one_line(small_dataset, tmp_path):
@@ -200,6 +202,7 @@ def test_experiment_sigterm_exits_130_in_one_line(small_dataset, tmp_path):
     clean(text)
 
 
+@pytest.mark.ray
 @pytest.mark.slow  # a Ray or torch start or two: 20-40 s
 @pytest.mark.e2e  # not in the default run: python -m pytest -m e2e
 def test_serve_sigterm_stops_taking_requests_and_exits_0(tmp_path):
