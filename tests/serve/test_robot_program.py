@@ -159,3 +159,22 @@ def test_too_many_parts_is_a_413():
     with pytest.raises(BadRequest) as err:
         parse_export_request(body(), max_parts=3)
     assert err.value.status == 413 and err.value.message.startswith("assembly: 4 parts")
+
+
+def test_the_pages_arms_and_formats_are_the_registrys():
+    """rap/serve/static/app.js's ARM_FORMATS and index.html's arm select: the registry's arms
+    and, for each, its formats in its order (the first the default)."""
+    import re
+    from pathlib import Path
+
+    from rap.robot.arms.registry import ARMS
+
+    static = Path(__file__).resolve().parents[2] / "rap" / "serve" / "static"
+    js = (static / "app.js").read_text()
+    table = js.split("const ARM_FORMATS = {", 1)[1].split("};", 1)[0]
+    page = {arm: re.findall(r'\["([a-z-]+)",\s*"', body)
+            for arm, body in re.findall(r"(\w+): \[(.*?)\]\],", table, flags=re.S)}
+    assert page == {name: list(spec.formats) for name, spec in ARMS.items()}
+    html = (static / "index.html").read_text()
+    select = html.split('id="program-arm"', 1)[1].split("</select>", 1)[0]
+    assert sorted(re.findall(r'value="(\w+)"', select)) == sorted(ARMS)
