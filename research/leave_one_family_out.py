@@ -22,11 +22,13 @@ one's share of the optimum and whether the guard flagged the assembly. Simulatio
 60,000 corpus rows; the 0.9 quantile of the other rows' mean distance to their 5 nearest) and
 writes the guard file beside the shipped descriptor model (``--share``: the share of an
 assembly's sampled operations beyond the limit that flags it; chosen by ``--measure``, which
-prints the share of fresh seeds of the training families and of the held-out kinds).
+prints the share of fresh seeds of the training families, of the held-out kinds, and of grids and
+tilings of 12-100 parts, beyond the corpus' sizes). The statistic leaves size out (the part counts
+and the area fraction: ``rap.model.inference.descriptor_model.size_free``).
 
 Cost: ``scorer`` a LightGBM fit a family (a minute or two each on 2 cores) plus the CNN on
 ``--rows`` rows; ``plans`` the optimum's simulations; ``guard-stats`` the corpus descriptors
-(cached under ``$RAP_CACHE_DIR``) and a 17 x 17 covariance.
+(cached under ``$RAP_CACHE_DIR``) and a 5,000 x 60,000 distance matrix (seconds).
 """
 
 from __future__ import annotations
@@ -143,21 +145,25 @@ def guard_stats(out: Path, share: float, measure: bool, reference: int) -> None:
     if measure:
         from rap.geometry.families import FAMILIES, HELD_OUT, generate
         from rap.model.data.batch_descriptors import BatchDescriptors
+        from rap.geometry.families.simple import grid, random_tiling
         from rap.model.inference.cascade import GUARD_OPERATIONS, guard_sample
         from rap.plan.problem import PlanningProblem
         from rap.sim.params import SimParams
 
-        for name, seeds in ([(f, (200, 201)) for f in sorted(FAMILIES)]
-                            + [(f, (0, 1, 2, 3)) for f in sorted(HELD_OUT)]):
-            for s in seeds:
-                asm = generate(name, s)
-                problem = PlanningProblem(asm, SimParams())
-                ops = guard_sample(problem, GUARD_OPERATIONS)
-                d = BatchDescriptors(asm).of(ops) if ops else np.zeros((0, 12))
-                print(json.dumps({"assembly": asm.name, "parts": len(asm),
-                                  "held_out": name in HELD_OUT,
-                                  "outside": round(fam.outside(d), 3), "operations": len(ops)}),
-                      flush=True)
+        cases = ([(f, s, False) for f in sorted(FAMILIES) for s in (200, 201)]
+                 + [(f, s, True) for f in sorted(HELD_OUT) for s in (0, 1, 2, 3)]
+                 + [("grid", k, False) for k in (4, 5, 6, 8, 10)]  # sizes beyond the corpus'
+                 + [("tiling", n, False) for n in (12, 20, 30, 50, 100)])
+        for name, s, held_out in cases:
+            asm = (grid(s) if name == "grid" else
+                   random_tiling(s, np.random.default_rng(1)) if name == "tiling" else
+                   generate(name, s))
+            problem = PlanningProblem(asm, SimParams())
+            ops = guard_sample(problem, GUARD_OPERATIONS)
+            d = BatchDescriptors(asm).of(ops) if ops else np.zeros((0, 12))
+            print(json.dumps({"assembly": asm.name, "parts": len(asm), "held_out": held_out,
+                              "outside": round(fam.outside(d), 3), "operations": len(ops)}),
+                  flush=True)
     fam.save(out)
     print(f"limit {fam.limit:.3f} ({fam.meta['quantile']} of {fam.meta['probe']} training rows "
           f"against {fam.meta['reference']}), share {share}; wrote {out}")
@@ -176,7 +182,7 @@ def main(argv=None) -> None:
     a2.add_argument("--max-parts", type=int, default=8)
     a3 = sub.add_parser("guard-stats")
     a3.add_argument("--out", default=str(ROOT / "rap" / "data" / "default_model.scorer.guard.npz"))
-    a3.add_argument("--share", type=float, default=0.6)
+    a3.add_argument("--share", type=float, default=0.4)
     a3.add_argument("--measure", action="store_true")
     a3.add_argument("--reference", type=int, default=60000)
     a = ap.parse_args(argv)

@@ -30,15 +30,27 @@ from __future__ import annotations
 import io
 import json
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
 from rap.stats import binomial_tail, high_count
 
-__all__ = ["DescriptorModel", "Familiarity", "FORMAT", "LOG_EPS", "features"]
+__all__ = ["DescriptorModel", "Familiarity", "FORMAT", "LOG_EPS", "SIZE_COLUMNS", "features",
+           "size_free"]
 
 FORMAT = "rap-farm/descriptor-model"
 LOG_EPS = 1e-4
+#: the descriptors that measure an assembly's size rather than its shape kind: ``moving_parts``,
+#: ``fixed_parts`` and ``log_area_fraction`` of ``rap.model.data.descriptors.DESCRIPTORS``
+SIZE_COLUMNS = (4, 5, 6)
+
+
+def size_free(log_columns=()) -> list[int]:
+    """The columns of ``features(descriptors, log_columns)`` that do not count parts: the twelve
+    descriptors but ``SIZE_COLUMNS``, then the logarithms of ``log_columns`` but theirs."""
+    logs = [12 + i for i, c in enumerate(log_columns) if c not in SIZE_COLUMNS]
+    return [c for c in range(12) if c not in SIZE_COLUMNS] + logs
 
 
 def features(descriptors: np.ndarray, log_columns=()) -> np.ndarray:
@@ -166,15 +178,24 @@ def _meta(z, path: str | Path) -> dict:
 class Familiarity:
     """How far an operation's descriptors lie from the descriptor model's training rows: the mean
     distance to the ``k`` nearest of a seeded ``reference`` sample of the training rows, in the
-    standardised features ``features(descriptors, log_columns)``; ``limit`` is the ``quantile``
-    of that distance over training rows outside the reference. ``outside(descriptors)`` is the
-    share of rows beyond the limit, what the cascade's guard compares with ``share``
+    standardised features ``features(descriptors, log_columns)`` restricted to ``columns`` and
+    clipped to the training rows' range ``[low, high]``; ``limit`` is the ``quantile`` of that
+    distance over training rows outside the reference. ``outside(descriptors)`` is the share of
+    rows beyond the limit, what the cascade's guard compares with ``share``
     (``rap.model.inference.cascade``). Chosen by measurement over a global Mahalanobis distance
     and the trees' disagreement with the CNN, which did not separate new shape kinds from fresh
     seeds of the training families (research/README.md, "Leave one family out").
 
+    Size is not a shape kind: the part counts and the area fraction are left out of ``columns``
+    (``size_free``), and a feature beyond the training range counts as its edge (the trees
+    answer there as at the edge). With every feature, unclipped, every assembly of 12 parts or
+    more was unfamiliar (a 5 x 5 grid: all 64 sampled operations beyond the limit) and its whole
+    graph went to the CNN (research/README.md, "The guard without size").
+
     Kept beside the model as ``NAME.guard.npz`` (``allow_pickle=False``): ``mean``, ``scale``,
-    ``reference`` (float16: standardised numbers, a thousandth apart), and ``meta`` (JSON: k, limit, share, quantile, log columns, counts).
+    ``reference`` (float16: standardised numbers, a thousandth apart; the used columns), and
+    ``meta`` (JSON: k, limit, share, quantile, log columns, columns, low, high, counts). A file
+    without ``columns`` uses every feature, unclipped.
     Cost: a brute-force [N, R] distance matrix, tens of milliseconds for 64 operations against
     the shipped 60,000 reference rows (once an assembly); the file is about 2 MB. numpy only."""
 
@@ -187,21 +208,30 @@ class Familiarity:
         self.limit = float(self.meta["limit"])
         self.share = float(self.meta["share"])
         self.log_columns = tuple(int(c) for c in self.meta.get("log_columns", ()))
+        cols = self.meta.get("columns")
+        self.columns = None if cols is None else [int(c) for c in cols]
+        self.low = None if cols is None else np.asarray(self.meta["low"], np.float64)
+        self.high = None if cols is None else np.asarray(self.meta["high"], np.float64)
         self._ref_sq = (self.reference.astype(np.float64) ** 2).sum(axis=1)
 
     @classmethod
     def fit(cls, descriptors: np.ndarray, log_columns=(), *, reference: int = 60000, k: int = 5,
             quantile: float = 0.9, share: float = 0.6, probe: int = 5000,
+            columns: Sequence[int] | None = None,
             rng: np.random.Generator) -> "Familiarity":
         """Fitted on training rows' descriptors: a seeded reference sample, the limit measured
-        on ``probe`` other rows."""
+        on ``probe`` other rows. ``columns``: the features used (default ``size_free``)."""
         f = features(descriptors, log_columns).astype(np.float64)
+        cols = list(size_free(log_columns) if columns is None else columns)
+        f = f[:, cols]
+        low, high = f.min(axis=0), f.max(axis=0)
         mean, scale = f.mean(axis=0), f.std(axis=0) + 1e-9
         order = rng.permutation(len(f))
         ref, others = order[:reference], order[reference:reference + probe]
         out = cls(mean, scale, (f[ref] - mean) / scale,
                   {"k": k, "limit": 0.0, "share": share, "quantile": quantile,
-                   "log_columns": list(log_columns), "rows": int(len(f)),
+                   "log_columns": list(log_columns), "columns": cols,
+                   "low": low.tolist(), "high": high.tolist(), "rows": int(len(f)),
                    "reference": int(len(ref)), "probe": int(len(others))})
         out.limit = float(np.quantile(out.distance(descriptors[others]), quantile))
         out.meta["limit"] = out.limit
@@ -209,7 +239,10 @@ class Familiarity:
 
     def distance(self, descriptors: np.ndarray) -> np.ndarray:
         """Mean distance of each row to its ``k`` nearest reference rows, float64 [N]."""
-        z = (features(descriptors, self.log_columns).astype(np.float64) - self.mean) / self.scale
+        f = features(descriptors, self.log_columns).astype(np.float64)
+        if self.columns is not None:
+            f = np.clip(f[:, self.columns], self.low, self.high)
+        z = (f - self.mean) / self.scale
         d2 = (z ** 2).sum(axis=1)[:, None] + self._ref_sq[None, :] - 2.0 * z @ self.reference.T
         near = np.partition(np.maximum(d2, 0.0), self.k - 1, axis=1)[:, :self.k]
         return np.sqrt(near).mean(axis=1)

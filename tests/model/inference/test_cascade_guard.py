@@ -14,7 +14,7 @@ import rap
 from rap.geometry.families import generate
 from rap.model.calibration import load as cnn_bounds
 from rap.model.inference.cascade import CascadeScorer, GuardedBounds, guard_path, companion
-from rap.model.inference.descriptor_model import Familiarity
+from rap.model.inference.descriptor_model import Familiarity, size_free
 from rap.model.inference.operations import OperationPredictor
 from rap.plan.problem import PlanningProblem
 from rap.sim.params import SimParams
@@ -40,7 +40,28 @@ def test_the_guard_file_round_trips(tmp_path):
     again = Familiarity.load(fam.save(tmp_path / "g.npz"))
     assert (again.limit, again.share, again.k) == (fam.limit, fam.share, fam.k)
     np.testing.assert_array_equal(again.reference, fam.reference)
-    assert fam.meta["quantile"] == 0.9 and fam.share == 0.6 and len(fam.reference) == 60000
+    assert fam.meta["quantile"] == 0.9 and fam.share == 0.4 and len(fam.reference) == 60000
+    assert again.columns == fam.columns == size_free(fam.log_columns)
+    np.testing.assert_array_equal(again.high, fam.high)
+
+
+@pytest.mark.parametrize("k", [5, 10])
+def test_a_large_assembly_of_a_known_kind_is_familiar(cascade, k):
+    """Size is not a shape kind: a 25- or 100-part grid, larger than any corpus assembly (at
+    most 16 parts), is familiar (the guard leaves the part counts and the area fraction out)."""
+    from rap.geometry.families.simple import grid
+
+    v = cascade.verdict(PlanningProblem(grid(k), SimParams()))
+    assert v["operations"] == 64 and v["outside"] < 0.1 and not v["unfamiliar"]
+
+
+def test_the_size_free_columns_leave_out_the_counts_and_the_area_fraction():
+    from rap.model.data.descriptors import DESCRIPTORS
+
+    cols = size_free((0, 1, 7, 8, 9))
+    kept = [DESCRIPTORS[c] for c in cols if c < 12]
+    assert {"moving_parts", "fixed_parts", "log_area_fraction"}.isdisjoint(kept)
+    assert len(kept) == 9 and cols[9:] == [12, 13, 14, 15, 16]
 
 
 def test_familiar_assembly_is_scored_and_bounded_as_without_the_guard(cascade):
