@@ -124,8 +124,10 @@ def _free_steps(assembly: Assembly, steps) -> list[bool]:
     return out
 
 
-def _landed(assembly: Assembly, op: Operation, params: SimParams, grasp) -> tuple[Pose, float]:
-    """A free step's pose (its parts off their goal by the grasp) and its tolerance radius."""
+def _free_landing(assembly: Assembly, op: Operation, params: SimParams
+                  ) -> tuple[tuple[float, float], float]:
+    """A free step's pivot (its moving parts' area centroid) and tolerance radius, the same for
+    every rollout: computed once a step."""
     from rap.sim.outline import assembly_outlines
     from rap.sim.placement import placement
     from rap.sim.shapes import area_centroid
@@ -133,7 +135,12 @@ def _landed(assembly: Assembly, op: Operation, params: SimParams, grasp) -> tupl
     pieces = assembly_outlines(assembly, params.shape_tolerance, params.shape_pieces)
     _, cx, cy = area_centroid([pc for i in sorted(op.moving) for pc in pieces[i]])
     radius = params.pos_tol * placement(assembly, op, params.start_gap).moving_extent
-    return ((cx, cy), (grasp[0], grasp[1]), float(grasp[2])), radius
+    return (cx, cy), radius
+
+
+def _landed(pivot: tuple[float, float], grasp) -> Pose:
+    """A free step's pose: its parts off their goal by the grasp, about ``pivot``."""
+    return pivot, (grasp[0], grasp[1]), float(grasp[2])
 
 
 def _within(pose: Pose, scene, params: SimParams, radius: float | None = None) -> bool:
@@ -171,8 +178,9 @@ def run_chunk(assembly: Assembly, plan: RolloutPlan, root_seed: int, first: int,
         grasps = [plan.errors.offsets(r, op.direction, plan.mm_per_unit) for r in rngs]
         if free[k]:
             survivors = []
+            pivot, radius = _free_landing(assembly, op, params)
             for j, g in zip(alive, grasps):
-                pose, radius = _landed(assembly, op, params, g)
+                pose = _landed(pivot, g)
                 if not _within(pose, None, params, radius):
                     failed[j] = k
                     continue
