@@ -7,7 +7,9 @@ label depends only on (root seed, content key), never on which worker ran it or 
 are built inside the worker by the simulator; nothing live crosses the wire. A task returns a
 ``BatchResult``: one row per operation in the dataset schema (``rap.dataset.SCHEMA``) plus timings.
 A ``RolloutTask`` (chunks of whole-plan rollouts, ``rap.execution``) goes through the same actors
-and the same retries; its outcomes come back in the result's ``extra["chunks"]``.
+and the same retries; its outcomes come back in the result's ``extra["chunks"]``. So does a
+``ToleranceTask`` (steps' simulated tolerances, ``rap.execution.tolerance``), in
+``extra["tolerances"]``.
 
 The simulator and renderer are looked up by import path (``Backend``), so the same actor serves the
 real physics (the default) and anything with the same signatures. The backend's warm-up (loading
@@ -35,7 +37,7 @@ from rap.operation import Operation
 from rap.labelling.rows import Backend, label_rows, resolve, rows_table
 from rap.farm.runtime import node_label
 
-__all__ = ["Backend", "SimTask", "RolloutTask", "BatchResult", "SimWorker", "resolve", "pack",
+__all__ = ["Backend", "SimTask", "RolloutTask", "ToleranceTask", "BatchResult", "SimWorker", "resolve", "pack",
            "unpack"]
 
 _ASSEMBLY_CACHE = 32  # assemblies kept per worker (LRU, by geometry hash)
@@ -74,6 +76,23 @@ class RolloutTask:
     @property
     def keys(self) -> tuple[str, ...]:
         return tuple(f"rollouts {f}-{f + c - 1}" for f, c in self.work)
+
+
+@dataclass(frozen=True)
+class ToleranceTask:
+    """Steps' simulated tolerances (``rap.execution.tolerance.tolerance``) on one assembly: each
+    job is ``tolerance``'s arguments after the assembly; ``names`` names them (the retries')."""
+
+    task_id: int
+    assembly_name: str
+    geometry_hash: str
+    assembly_ref: list
+    jobs: tuple[tuple, ...]
+    names: tuple[str, ...]
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return tuple(f"tolerance {n}" for n in self.names)
 
 
 def pack(operation: Operation) -> bytes:
@@ -167,9 +186,11 @@ class SimWorker:
             self._assemblies.move_to_end(task.geometry_hash)
         return a
 
-    def run(self, task: SimTask | RolloutTask) -> BatchResult:
+    def run(self, task: SimTask | RolloutTask | ToleranceTask) -> BatchResult:
         if isinstance(task, RolloutTask):
             return self._rollouts(task)
+        if isinstance(task, ToleranceTask):
+            return self._tolerances(task)
         t0 = time.perf_counter()
         simulate, render = self._functions(task.images)
         assembly = self._assembly(task)
@@ -192,3 +213,16 @@ class SimWorker:
         return BatchResult(task_id=task.task_id, table=rows_table([]), node=self._node,
                            pid=self._pid, assembly=task.assembly_name, sim_s=dt, task_s=dt,
                            extra={"chunks": out})
+
+    def _tolerances(self, task: ToleranceTask) -> BatchResult:
+        """A ``ToleranceTask``'s tolerances in mm, in its jobs' order, in ``extra["tolerances"]``."""
+        from rap.execution.tolerance import tolerance
+
+        t0 = time.perf_counter()
+        self._functions(False)
+        assembly = self._assembly(task)
+        out = [tolerance(assembly, *job) for job in task.jobs]
+        dt = time.perf_counter() - t0
+        return BatchResult(task_id=task.task_id, table=rows_table([]), node=self._node,
+                           pid=self._pid, assembly=task.assembly_name, sim_s=dt, task_s=dt,
+                           extra={"tolerances": out})

@@ -125,7 +125,7 @@ def _step_executions(problem: PlanningProblem, result: PlanResult, m,
     ops = [s.to_operation() for s in result.steps]
     gaps = [clearance(problem.assembly, op) for op in ops]
     tols = [None] * len(ops)
-    if options.tolerances:  # the steps in parallel where the runner can (the local workers)
+    if options.tolerances:  # the steps in parallel where the runner can (local workers, the pool)
         jobs = [(problem.assembly, op, problem.params, options.mm_per_unit, seed, problem.key(op),
                  c is None or problem.is_free(op)) for op, c in zip(ops, gaps)]
         tols = (runner.run_tolerances(jobs) if isinstance(runner, ToleranceRunner)

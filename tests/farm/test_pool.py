@@ -197,6 +197,29 @@ def test_batches_grow_with_the_pool_so_the_task_rate_stays_bounded(ray_local):
     assert last_wave == 2  # 1,000 operations left over 500 actors
 
 
+def test_tolerances_on_the_pool_are_the_ones_computed_here(ray_local):
+    """Steps' simulated tolerances (rap.execution.tolerance) as pool tasks, one a step, in the
+    jobs' order: the numbers of the same calls in this process (what the service's requests
+    used to run in their own thread)."""
+    from fractions import Fraction
+
+    from rap.execution.tolerance import ToleranceRunner, tolerance
+    from rap.farm.pool import SimPool
+    from rap.farm.rollouts import PoolRollouts
+    from rap.sim.params import DEFAULT_PARAMS
+
+    from tests.execution.cases import slot
+
+    asm, op = slot(Fraction(1, 4))
+    jobs = [(asm, op, DEFAULT_PARAMS, mm, 3, "slot", False) for mm in (1.0, 0.5)]
+    here = [tolerance(*job) for job in jobs]
+    with SimPool(2, backend=REAL) as pool:
+        runner = PoolRollouts(pool)
+        assert isinstance(runner, ToleranceRunner)
+        assert runner.run_tolerances(jobs) == here and runner.run_tolerances([]) == []
+    assert here[0] != here[1]  # two different jobs, in their order
+
+
 def test_rollouts_on_the_pool_are_the_same_on_one_worker_and_two(ray_local):
     """Whole-plan rollouts (rap.execution) as pool tasks: chunk results depend on the seed and
     the indices only, whichever worker ran them and in whatever order."""
