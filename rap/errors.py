@@ -16,15 +16,21 @@ SIGTERM as Ctrl-C, in one place: ``docker stop``, systemd, Kubernetes, SLURM and
 send SIGTERM, and what runs under them stops as it does on Ctrl-C (commit, then stop). Inside
 ``sigterm_as_interrupt()`` a SIGTERM raises ``KeyboardInterrupt`` in the main thread and ignores
 any later SIGTERM, so the cleanup after the first is not interrupted; the handler before the block
-is put back after it. A signal handler lives in the main thread only: elsewhere the block changes
-nothing. The CLI's ``main`` and the farm driver use it.
+is put back after it. An interrupt that Python would drop (raised where an exception cannot go on:
+an at-fork hook, a finalizer, a weakref callback; "Exception ignored in ...") is raised again in
+the main thread instead (``sys.unraisablehook``), so the command never goes on deaf to it. A signal
+handler lives in the main thread only: elsewhere the block changes nothing. The CLI's ``main`` and
+the farm driver use it.
 """
 
 from __future__ import annotations
 
+import _thread
 import contextlib
 import signal
+import sys
 import threading
+import time
 from typing import Iterator
 
 __all__ = ["RapError", "InputError", "ParameterError", "WorkFailedError", "StorageError", "one_line", "EXIT_OK",
@@ -102,8 +108,31 @@ def sigterm_as_interrupt(*, keep: bool = False) -> Iterator[None]:
         yield
         return
     before = signal.signal(signal.SIGTERM, _interrupt)
+    hook_before = sys.unraisablehook
+    sys.unraisablehook = _redeliver(hook_before)
     try:
         yield
     finally:  # a caller in this process (a test) gets its own handler back
+        sys.unraisablehook = hook_before
         if before is not None:
             signal.signal(signal.SIGTERM, before)
+
+
+def _redeliver(previous):
+    """An unraisable-exception hook that raises a dropped ``KeyboardInterrupt`` again in the main
+    thread (as Ctrl-C: ``_thread.interrupt_main``, from a thread of its own 10 ms later, once the
+    hook has returned: raised inside the hook, it would be dropped again) and passes anything else
+    to ``previous``."""
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            _thread.start_new_thread(_interrupt_main_soon, ())
+            return
+        previous(unraisable)
+
+    return hook
+
+
+def _interrupt_main_soon() -> None:
+    time.sleep(0.01)
+    _thread.interrupt_main()

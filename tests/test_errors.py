@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import signal
 import threading
+import time
 
 import pytest
 
@@ -72,3 +73,43 @@ def test_outside_the_main_thread_nothing_changes(own_handler):
     t.start()
     t.join()
     assert seen == [signal.SIG_DFL]
+
+
+class _DropsAnInterrupt:
+    def __del__(self):
+        raise KeyboardInterrupt  # where Python cannot raise it: "Exception ignored in ..."
+
+
+def test_an_interrupt_python_would_drop_is_raised_again_in_the_main_thread(own_handler):
+    """A KeyboardInterrupt raised in a finalizer (or an at-fork hook, a weakref callback) is
+    dropped by Python; inside the block it reaches the main thread as Ctrl-C, so the command
+    does not go on deaf to the SIGTERM it stood for."""
+    import sys
+
+    hook = sys.unraisablehook
+    with pytest.raises(KeyboardInterrupt):
+        with sigterm_as_interrupt():
+            _DropsAnInterrupt()  # collected at once: its __del__'s interrupt is dropped
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline:  # the eval loop takes the pending interrupt here
+                pass
+            pytest.fail("the dropped interrupt did not reach the main thread in 30 s")
+    assert sys.unraisablehook is hook
+
+
+def test_other_unraisable_exceptions_still_reach_the_previous_hook(own_handler):
+    import sys
+
+    seen = []
+    hook, sys.unraisablehook = sys.unraisablehook, lambda u: seen.append(u.exc_type)
+    try:
+        with sigterm_as_interrupt():
+
+            class Fails:
+                def __del__(self):
+                    raise ValueError("in a finalizer")
+
+            Fails()
+        assert seen == [ValueError]
+    finally:
+        sys.unraisablehook = hook
