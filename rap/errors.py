@@ -126,8 +126,11 @@ def _redeliver(previous):
 
     def hook(unraisable) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
-            _thread.start_new_thread(_interrupt_main_soon, ())
-            return
+            try:
+                _thread.start_new_thread(_interrupt_main_soon, ())
+                return
+            except RuntimeError:  # the interpreter is shutting down: the interrupt has no use
+                pass
         previous(unraisable)
 
     return hook
