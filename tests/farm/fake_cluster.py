@@ -36,7 +36,6 @@ import dataclasses
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -49,8 +48,9 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from rap.labelling.rows import Backend  # noqa: E402
+from tests.ports import free_port  # noqa: E402
 
-__all__ = ["FakeCluster", "GATED", "free_port", "gated_simulate"]
+__all__ = ["FakeCluster", "GATED", "gated_simulate"]
 
 RAY = str(Path(sys.executable).with_name("ray"))
 MARK = "RAP_FAKE_CLUSTER_ID"
@@ -59,12 +59,6 @@ HOLD_AFTER = 3  # a held worker process simulates this many operations, then wai
 #: the real simulator (renderer, warm-up) behind the gate described in the module docstring
 GATED = Backend(simulate="tests.farm.fake_cluster:gated_simulate",
                 render="rap.render.images:render_pair", warm_up="rap.sim.simulator:warm_up")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _config(gcs: str, max_workers: int, min_workers: int, head_cpus: int, worker_cpus: int,

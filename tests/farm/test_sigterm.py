@@ -24,7 +24,7 @@ import pytest
 from rap.dataset import open_dataset
 
 from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
-from tests.farm.fake_cluster import free_port
+from tests.ports import free_port
 
 
 INTERRUPTED = "rap-farm: interrupted; committed work is kept"

@@ -21,7 +21,8 @@ import pytest
 from rap.dataset import open_dataset
 
 from tests.farm.conftest import ASSEMBLIES, ROOT, ray_env
-from tests.farm.fake_cluster import RAY, free_port
+from tests.farm.fake_cluster import RAY
+from tests.ports import free_port
 
 pytestmark = [pytest.mark.ray, pytest.mark.e2e]  # not in the default run: python -m pytest -m e2e
 

@@ -3,9 +3,9 @@ running ``rap-farm serve`` (fixture ``service``)."""
 
 from __future__ import annotations
 
+import http.client
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -16,13 +16,8 @@ from pathlib import Path
 import pytest
 
 from tests.farm.conftest import ray_env, ray_local  # noqa: F401  (ray_local: a fixture, by name)
+from tests.ports import free_port
 from tests.shared_resources import shared
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @dataclass
@@ -36,7 +31,7 @@ class Service:
 def _start_service(tmp: Path) -> Service:
     from tests.serve.test_http_app import TOKEN, TRIALS, _call
 
-    port = _free_port()
+    port = free_port()
     env = dict(ray_env(), RAP_CACHE=str(tmp / "cache.json"))
     env.pop("RAP_FARM_TOKEN", None)
     log = open(tmp / "serve.log", "w")
@@ -54,7 +49,7 @@ def _start_service(tmp: Path) -> Service:
             try:
                 if _call(svc.url, "/health", timeout=5)[0] == 200:
                     return svc
-            except (urllib.error.URLError, OSError, ValueError):
+            except (urllib.error.URLError, OSError, ValueError, http.client.HTTPException):
                 pass
             if time.monotonic() > deadline:
                 pytest.fail("rap-farm serve did not become healthy in 150 s")
