@@ -2,21 +2,30 @@
 defaults first, then the one flag the refusal names; print a markdown table (outcome, parts, area,
 vertices, flags, seconds per import) for docs/ASSEMBLIES.md.
 
-    python benchmarks/drawings.py [FOLDER]
+    python benchmarks/drawings.py [FOLDER] [--plan]
 
 Each import runs in this process after a warm-up import (library loading is not counted); the
-time is the median of three imports.
+time is the median of three imports. ``--plan`` then plans every drawing that imported, cold: a
+fresh ``python -m rap.cli plan`` process with an empty score cache, on the drawing itself (or, when
+it needs a flag, on the assembly imported with it), and prints a second table: exit status, R or
+the interlocked pieces, and the seconds from the start of the process (import included).
 """
 
 from __future__ import annotations
 
+import json
 import re
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
+from rap.assembly import assembly_to_json
 from rap.cad import DrawingError, ImportOptions, import_drawing
+
+ROOT = Path(__file__).resolve().parents[1]
 
 #: the one flag a refusal may name, as ImportOptions fields
 _FLAGS = (
@@ -37,10 +46,12 @@ def _timed(path: Path, options: ImportOptions):
     return result, statistics.median(times)
 
 
-def _row(path: Path) -> str:
+def _imported(path: Path):
+    """(result, seconds, flags text, options) of the defaults or the one flag the refusal names;
+    (None, 0, what was refused, None) when it is refused."""
     try:
         result, seconds = _timed(path, ImportOptions())
-        flags = "none"
+        return result, seconds, "none", {}
     except DrawingError as exc:
         for pattern, make in _FLAGS:
             m = pattern.search(str(exc))
@@ -49,26 +60,65 @@ def _row(path: Path) -> str:
                 try:
                     result, seconds = _timed(path, ImportOptions(**options))
                 except DrawingError as again:
-                    return f"| {path.name} | refused twice | | | | {again.problem[:120]} | |"
+                    return None, 0.0, f"refused twice: {again.problem[:120]}", None
                 flags = " ".join(f"--{k} {','.join(v) if isinstance(v, tuple) else v}"
                                  for k, v in options.items())
-                break
-        else:
-            return f"| {path.name} | refused | | | | {exc.problem[:160]} | |"
+                return result, seconds, flags, options
+        return None, 0.0, f"refused: {exc.problem[:160]}", None
+
+
+def _row(path: Path, result, seconds: float, flags: str) -> str:
+    if result is None:
+        outcome, _, why = flags.partition(": ")
+        return f"| {path.name} | {outcome} | | | | {why} | |"
     a = result.assembly
     area = sum(float(p.area()) for p in a.parts)
     return (f"| {path.name} | imported ({result.made_by}) | {len(a)} | {area:.1f} | "
             f"{result.vertices} | {flags} | {seconds:.2f} |")
 
 
-def main(folder: str = "../shared/drawings") -> None:
+def _plan_row(path: Path, result, options: dict) -> str:
+    """A cold ``plan`` of the drawing (or of its import with the flag), as a table row."""
+    with tempfile.TemporaryDirectory() as tmp:
+        target = path
+        if options:
+            target = Path(tmp) / f"{path.stem}.json"
+            target.write_text(json.dumps(assembly_to_json(result.assembly)))
+        out = Path(tmp) / "plan.json"
+        cmd = [sys.executable, "-m", "rap.cli", "plan", str(target), "--cache",
+               str(Path(tmp) / "scores.json"), "--out", str(out)]
+        t0 = time.perf_counter()
+        p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+        wall = time.perf_counter() - t0
+        doc = json.loads(out.read_text()) if out.exists() else {}
+    if p.returncode == 0:
+        what = f"R {doc['robustness']:.3f}"
+    else:
+        lines = p.stderr.strip().splitlines()
+        what = lines[-1][:140] if lines else ""
+    return f"| {path.name} | {p.returncode} | {what} | {wall:.1f} |"
+
+
+def main(*argv: str) -> None:
+    want_plan = "--plan" in argv
+    folders = [a for a in argv if a != "--plan"]
+    folder = folders[0] if folders else "../shared/drawings"
     files = sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in (".dxf", ".svg"))
     for path in files[:1]:  # warm-up: the imports of ezdxf, svgelements and shapely
-        _row(path)
+        _imported(path)
     print("| drawing | outcome | parts | area (mm^2) | vertices | flags | s |")
     print("|---|---|---:|---:|---:|---|---:|")
+    imported = []
     for path in files:
-        print(_row(path), flush=True)
+        result, seconds, flags, options = _imported(path)
+        print(_row(path, result, seconds, flags), flush=True)
+        if result is not None:
+            imported.append((path, result, options))
+    if want_plan:
+        print("\n| drawing | plan exit | R or why not | s (cold) |")
+        print("|---|---:|---|---:|")
+        for path, result, options in imported:
+            print(_plan_row(path, result, options), flush=True)
 
 
 if __name__ == "__main__":

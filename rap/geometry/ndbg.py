@@ -33,7 +33,7 @@ from fractions import Fraction
 from typing import Iterable, Sequence
 
 from rap.assembly import Assembly
-from rap.geometry.blocking import BlockedSet, blocking_arcs
+from rap.geometry.blocking import BlockedSet, piece_tree, tree_blocking_arcs
 from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, arc_middle_unit,
                                 exact_direction, in_open_arc, primitive, to_integers, unit)
 from rap.geometry.validation import part_pieces
@@ -212,10 +212,11 @@ def build_ndbg_from_pieces(ids: Sequence[str], pieces: Sequence[Sequence[Sequenc
     """The NDBG of parts given as convex pieces with integer coordinates (disjoint interiors)."""
     n = len(ids)
     pairs: dict[tuple[int, int], BlockedSet] = {}
+    trees = [piece_tree(pc) for pc in pieces]
     for i in range(n):
-        pi = pieces[i]
+        ti = trees[i]
         for j in range(i + 1, n):
-            bs = blocking_arcs(pi, pieces[j])
+            bs = tree_blocking_arcs(ti, trees[j])
             if bs:
                 pairs[(i, j)] = bs
                 pairs[(j, i)] = bs.negated()

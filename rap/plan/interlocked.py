@@ -5,9 +5,11 @@ with the robot cell's rules lifted). A plan that fails there names an inclusion-
 never a set that is not verified interlocked (``rap.plan.cell.rules.blocked_by`` says so in
 other words then).
 
-* ``minimal_interlocked(subset, interlocked)``: drop parts one at a time, in id order, while the
-  rest (at least 2 parts) stays interlocked. O(n^2) calls of the test ``interlocked(parts)``
-  (e.g. ``lambda s: not problem.splits(s, False)``).
+* ``minimal_interlocked(subset, interlocked)``: the first pair, in id order, that is interlocked
+  by itself (two parts that block each other in every direction, such as two jigsaw pieces);
+  else parts dropped in id order, pass after pass, while the rest (at least 2 parts) stays
+  interlocked, until a pass drops none. O(n^2) calls of the test ``interlocked(parts)`` (e.g.
+  ``lambda s: not problem.splits(s, False)``) on pairs, which are cheap, then O(n) per pass.
 * ``interlocked_message(assembly, parts)``: the one-line reason of an ``INFEASIBLE`` plan.
 
 No ray, no torch; imports nothing of rap.
@@ -15,6 +17,7 @@ No ray, no torch; imports nothing of rap.
 
 from __future__ import annotations
 
+from itertools import combinations
 from typing import Callable, Iterable
 
 __all__ = ["minimal_interlocked", "interlocked_message"]
@@ -27,6 +30,9 @@ def minimal_interlocked(subset: Iterable[str],
     cur = sorted(subset)
     if not interlocked(frozenset(cur)):
         return frozenset(cur)
+    for pair in combinations(cur, 2):  # a pair that locks is as small as an interlock gets
+        if interlocked(frozenset(pair)):
+            return frozenset(pair)
     changed = True
     while changed and len(cur) > 2:
         changed = False
@@ -34,7 +40,6 @@ def minimal_interlocked(subset: Iterable[str],
             rest = [p for p in cur if p != pid]
             if len(rest) >= 2 and interlocked(frozenset(rest)):
                 cur, changed = rest, True
-                break
     return frozenset(cur)
 
 

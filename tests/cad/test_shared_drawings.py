@@ -83,3 +83,24 @@ def test_a_refusal_is_one_line_naming_the_flag_or_the_overlap(name, what):
     with pytest.raises(DrawingError) as e:
         import_drawing(DRAWINGS / name)
     assert what in str(e.value) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("name, options", [("neon22-default-jigsaw.svg", {}),
+                                           ("kach-triangle3.svg", {"parts": "face"})])
+def test_a_jigsaw_plans_to_a_confirmed_interlock_of_two_pieces(name, options):
+    """Jigsaw pieces lock their neighbours in every direction: the plan is INFEASIBLE and names
+    two touching pieces that no one-step translation separates (the 91-piece sheet does the same
+    in seconds: ``python benchmarks/drawings.py --plan``)."""
+    from rap.plan import plan
+    from rap.plan.problem import PlanningProblem
+    from rap.plan.report.result import PlanStatus
+    from rap.sim.params import SimParams
+    from tests.plan.standins import HashSim, TableCnn
+
+    assembly = import_drawing(DRAWINGS / name, ImportOptions(**options)).assembly
+    sim, cnn = HashSim(), TableCnn(lambda op: 0.5)
+    result = plan(assembly, params=SimParams(trials=10), simulator=sim, model=cnn)
+    assert result.status is PlanStatus.INFEASIBLE and len(result.interlocked) == 2
+    problem = PlanningProblem(assembly, SimParams(trials=10))
+    assert not problem.splits(frozenset(result.interlocked), False)
+    assert sim.ops == 0

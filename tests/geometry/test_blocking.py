@@ -8,7 +8,8 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import MultiPoint, Polygon
 
-from rap.geometry.blocking import FULL, BlockedSet, blocking_arcs, merge_arcs
+from rap.geometry.blocking import (FULL, BlockedSet, blocking_arcs, convex_hull, merge_arcs,
+                                   piece_cone)
 from rap.geometry.exact import primitive
 from rap.geometry.triangulate import convex_pieces
 
@@ -148,3 +149,44 @@ def test_merge_arcs():
     assert m.arcs == (((1, 0), (1, 0)),) and not m.contains((1, 0)) and m.contains((1, 1))
     assert merge_arcs([((1, 0), (-1, 1)), ((0, 1), (-1, -1)), ((-1, 0), (1, 1))]) == FULL
 
+
+
+@st.composite
+def pocketed_pair(draw):
+    """A small square in a star polygon's box, not overlapping it: hulls that meet, parts apart."""
+    b = draw(star_polygon())
+    x0, y0, x1, y1 = _bbox(b)
+    s = draw(st.integers(1, 8))
+    x, y = draw(st.integers(x0 - s, x1)), draw(st.integers(y0 - s, y1))
+    a = [(x, y), (x + s, y), (x + s, y + s), (x, y + s)]
+    assume(Polygon(a).intersection(Polygon(b)).area == 0)
+    return a, b
+
+
+def _every_piece_cone(a, b) -> BlockedSet:
+    return merge_arcs([piece_cone(A, B) for A in convex_pieces(a) for B in convex_pieces(b)])
+
+
+@SETTINGS
+@given(st.one_of(separated_pair(), pocketed_pair()))
+def test_the_bounded_search_is_the_union_of_every_piece_cone(pair):
+    a, b = pair
+    assert _arcs(a, b) == _every_piece_cone(a, b)
+    assert _arcs(b, a) == _every_piece_cone(b, a)
+
+
+def test_a_dovetail_is_blocked_everywhere_and_a_part_beside_it_in_one_arc():
+    socket = [(0, 0), (10, 0), (10, 10), (6, 10), (7, 6), (3, 6), (4, 10), (0, 10)]
+    tab = [(0, 10), (4, 10), (3, 6), (7, 6), (6, 10), (10, 10), (10, 14), (0, 14)]
+    dovetail_pieces = convex_pieces(socket)
+    assert blocking_arcs(convex_pieces(tab), dovetail_pieces) == _every_piece_cone(tab, socket)
+    assert blocking_arcs(convex_pieces(tab), dovetail_pieces) == FULL
+    far = [(20, 0), (24, 0), (24, 3), (20, 3)]
+    assert _arcs(far, socket) == _every_piece_cone(far, socket)
+    assert len(_arcs(far, socket).arcs) == 1
+
+
+def test_convex_hull_is_ccw_without_collinear_points():
+    pts = [(0, 0), (2, 0), (4, 0), (4, 4), (2, 2), (0, 4), (2, 4), (0, 2)]
+    assert convex_hull(pts) == ((0, 0), (4, 0), (4, 4), (0, 4))
+    assert convex_hull([(1, 1), (1, 1)]) == ((1, 1),)
