@@ -13,13 +13,16 @@ interior of the Minkowski difference ``b - a`` (a convex polygon: the hull of th
 differences). For a convex set with the origin on its boundary the ray enters the interior at once
 or never, so touching pieces that slide past each other do not count, and pieces blocked at once
 give 0. The travel is a ``Fraction`` of ``u``; only the final length in assembly units is a float
-(``|u|``). Cost: O(pa x pb x (va x vb) log(va x vb)) for the piece pairs whose boxes can meet
-within the assembly's extent.
+(``|u|``). Cost: O(pa x pb) integer projections, plus O((va x vb) log(va x vb)) for each piece
+pair in a moving piece's strip ahead of it, nearest first, until the rest lie beyond the best
+travel found. A part's pieces are computed once per assembly (the last few are kept).
 """
 
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from fractions import Fraction
 from typing import Sequence
 
@@ -76,44 +79,67 @@ def _entry(hull: Sequence[IVec], u: IVec) -> Fraction | None:
     return lo
 
 
-def _box(piece):
-    xs, ys = [p[0] for p in piece], [p[1] for p in piece]
-    return min(xs), min(ys), max(xs), max(ys)
+def _extent(piece: Sequence[IVec], u: IVec) -> tuple[int, int, int, int]:
+    """(min, max) of the piece's projections on ``u`` and on its normal ``w = (-u_y, u_x)``."""
+    along = [x * u[0] + y * u[1] for x, y in piece]
+    across = [y * u[0] - x * u[1] for x, y in piece]
+    return min(along), max(along), min(across), max(across)
 
 
-def free_travel(moving: Sequence[Sequence[IVec]], fixed: Sequence[Sequence[IVec]], u: IVec,
-                reach: int) -> Fraction | None:
+def free_travel(moving: Sequence[Sequence[IVec]], fixed: Sequence[Sequence[IVec]],
+                u: IVec) -> Fraction | None:
     """How far (in multiples of ``u``) the convex pieces ``moving`` travel along ``u`` before
-    entering a piece of ``fixed``; None when none within ``reach`` (in coordinate units, a bound
-    used to skip far piece pairs)."""
+    entering a piece of ``fixed``; None when they never do. Only fixed pieces in a moving piece's
+    open strip along ``u`` and ahead of it can be entered; they are tried nearest first, and one
+    whose nearest point lies beyond the best travel found ends the scan (integer projections,
+    exact)."""
+    uu = u[0] * u[0] + u[1] * u[1]
+    spans = sorted((_extent(b, u), b) for b in fixed)
     best: Fraction | None = None
     for a in moving:
-        ax0, ay0, ax1, ay1 = _box(a)
-        for b in fixed:
-            bx0, by0, bx1, by1 = _box(b)
-            if bx0 > ax1 + reach or bx1 < ax0 - reach or by0 > ay1 + reach or by1 < ay0 - reach:
-                continue
+        a_lo, a_hi, a_w0, a_w1 = _extent(a, u)
+        for (b_lo, b_hi, b_w0, b_w1), b in spans:
+            if best is not None and (b_lo - a_hi) >= best * uu:
+                break  # every later piece starts at least this far ahead
+            if b_hi <= a_lo or b_w1 <= a_w0 or a_w1 <= b_w0:
+                continue  # behind the moving piece, or outside its strip
             t = _entry(_hull([(bx - ax, by - ay) for bx, by in b for ax, ay in a]), u)
             if t is not None and (best is None or t < best):
                 best = t
     return best
 
 
+_PIECES: OrderedDict[tuple[str, str], tuple[int, dict]] = OrderedDict()
+_PIECES_LOCK = threading.Lock()
+
+
+def _pieces_of(assembly: Assembly) -> tuple[int, dict]:
+    """(integer scale, {part id: convex pieces}) of an assembly, kept for the last 4 (a plan's
+    steps share one assembly)."""
+    key = (assembly.geometry_hash, assembly.name)
+    with _PIECES_LOCK:
+        hit = _PIECES.get(key)
+    if hit is None:
+        ia = to_integers(assembly)
+        hit = (ia.scale, dict(zip((p.id for p in ia.parts), part_pieces(ia))))
+        with _PIECES_LOCK:
+            _PIECES[key] = hit
+            while len(_PIECES) > 4:
+                _PIECES.popitem(last=False)
+    return hit
+
+
 def clearance(assembly: Assembly, operation: Operation) -> float | None:
     """The step's clearance in assembly units (module doc)."""
-    ia = to_integers(assembly)
-    pieces = dict(zip((p.id for p in ia.parts), part_pieces(ia)))
+    scale, pieces = _pieces_of(assembly)
     moving = [pc for i in sorted(operation.moving) for pc in pieces[i]]
     fixed = [pc for i in sorted(operation.fixed) for pc in pieces[i]]
     d = exact_direction(operation.exact_direction or operation.direction)
-    xs = [x for pc in moving + fixed for x, _ in pc]
-    ys = [y for pc in moving + fixed for _, y in pc]
-    reach = max(max(xs) - min(xs), max(ys) - min(ys))
     travels = []
     for u in ((-d[1], d[0]), (d[1], -d[0])):
-        t = free_travel(moving, fixed, u, reach)
+        t = free_travel(moving, fixed, u)
         if t is not None:
             travels.append(float(t) * math.hypot(*u))
     if not travels:
         return None
-    return min(travels) / ia.scale
+    return min(travels) / scale

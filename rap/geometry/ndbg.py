@@ -1,7 +1,8 @@
 """The non-directional blocking graph (NDBG) of one-step translations, built by a sweep.
 
-``build_ndbg(assembly)`` scales the assembly to integers, splits every part into convex pieces,
-computes for every unordered pair of parts the disjoint open blocking arcs of (a, b) (those of
+``build_ndbg(assembly)`` scales the assembly to integers, splits every part into convex pieces
+(a hierarchy of them per part, ``rap.geometry.blocking.piece_tree``), computes for every unordered
+pair of parts the disjoint open blocking arcs of (a, b) (those of
 (b, a) are their negation) and sweeps the circle of directions once over the sorted critical
 directions (arc endpoints). Each ordered pair's blocked set is a union of *disjoint* open arcs,
 so a pair is blocked in at most one of its arcs at a time: the sweep keeps one bit per ordered
@@ -17,8 +18,9 @@ Each cell stores its DBG as a tuple of per-part out-bitmasks (``outs[i]`` has bi
 part i alone along the cell's directions collides with part j); consecutive cells share the
 int objects of unchanged rows. ``Cell.blocks`` materialises the index pairs on demand.
 
-Complexity (n parts, at most q vertices per part): O(n^2 q^2) for the cones (constant-size
-merges for convex parts), O(m log m) to sort the m = O(n^2) critical directions (m = O(n^2 q^2)
+Complexity (n parts, at most q vertices per part): O(n^2 q^2) for the cones at worst, O(n^2 q)
+where parts apart take their hulls' cone (``rap.geometry.blocking``; a 91-piece jigsaw of 36,922
+vertices in 4 s), O(m log m) to sort the m = O(n^2) critical directions (m = O(n^2 q^2)
 for non-convex parts), O(m n) to snapshot the cells, i.e. O(n^2 (log n + q^2)) as in the paper
 plus the O(n^3) output of the explicit per-cell DBGs.
 """

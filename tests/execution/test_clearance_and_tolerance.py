@@ -5,8 +5,10 @@ from __future__ import annotations
 from fractions import Fraction
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from rap.execution.clearance import clearance
+from rap.execution.clearance import _entry, _hull, clearance, free_travel
 from rap.execution.tolerance import tolerance
 from rap.operation import Operation
 from rap.sim.params import DEFAULT_PARAMS
@@ -36,3 +38,19 @@ def test_a_wider_clearance_gives_a_larger_tolerance():
     assert 0 < tight < wide
     again = tolerance(*slot(Fraction(1, 4)), DEFAULT_PARAMS, 1.0, 0, "slot")
     assert again == tight  # seeded
+
+
+_square = st.tuples(st.integers(-30, 30), st.integers(-30, 30), st.integers(1, 6)).map(
+    lambda t: ((t[0], t[1]), (t[0] + t[2], t[1]), (t[0] + t[2], t[1] + t[2]), (t[0], t[1] + t[2])))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(_square, min_size=1, max_size=3), st.lists(_square, min_size=1, max_size=8),
+       st.tuples(st.integers(-5, 5), st.integers(-5, 5)).filter(lambda u: u != (0, 0)))
+def test_the_pruned_travel_is_the_least_entry_over_every_piece_pair(moving, fixed, u):
+    """free_travel skips pieces outside the strip and stops past the best: the same answer as
+    trying every pair (squares may overlap here: only the least entry is compared)."""
+    entries = [_entry(_hull([(bx - ax, by - ay) for bx, by in b for ax, ay in a]), u)
+               for a in moving for b in fixed]
+    entries = [t for t in entries if t is not None]
+    assert free_travel(moving, fixed, u) == (min(entries) if entries else None)
