@@ -347,7 +347,8 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
     sim = LocalSimulator(processes=workers, prestart=True)
     cache_obj = None
     try:
-        cnn = _load_cnn(model_path) if model_path else None
+        # one part: no operation to score, so no model to load (a second or more)
+        cnn = _load_cnn(model_path) if model_path and len(asm.parts) > 1 else None
         problem = PlanningProblem(asm, params, root_seed, space,
                                   constraints=constraints or CellConstraints())
         if cnn is not None:

@@ -214,7 +214,7 @@ def build_ndbg_from_pieces(ids: Sequence[str], pieces: Sequence[Sequence[Sequenc
     """The NDBG of parts given as convex pieces with integer coordinates (disjoint interiors)."""
     n = len(ids)
     pairs: dict[tuple[int, int], BlockedSet] = {}
-    trees = [piece_tree(pc) for pc in pieces]
+    trees = [piece_tree(pc) for pc in pieces] if n > 1 else [None] * n
     for i in range(n):
         ti = trees[i]
         for j in range(i + 1, n):
@@ -229,7 +229,8 @@ def build_ndbg_from_pieces(ids: Sequence[str], pieces: Sequence[Sequence[Sequenc
 def build_ndbg(assembly: Assembly) -> NDBG:
     """Exact NDBG of one-step translations of a (valid) assembly; see the module docstring."""
     ia = to_integers(assembly)
-    return build_ndbg_from_pieces(ia.ids, part_pieces(ia), assembly.name, ia.scale)
+    pieces = part_pieces(ia) if len(ia.parts) > 1 else [[] for _ in ia.parts]  # one part: no pair
+    return build_ndbg_from_pieces(ia.ids, pieces, assembly.name, ia.scale)
 
 
 _MEMO: OrderedDict[tuple[str, str], NDBG] = OrderedDict()
