@@ -113,6 +113,8 @@ class Drawing:
     layer_names: dict[str, set[str]] = field(default_factory=dict)
     #: the page (an SVG's viewport) as (xmin, ymin, xmax, ymax) in output units; None unknown
     page: tuple[float, float, float, float] | None = None
+    #: the layers the drawing's editor marks locked (Inkscape's lock, a DXF layer's lock flag)
+    locked: frozenset[str] = frozenset()
 
 
 def left_out_text(counts: Counter) -> str:

@@ -227,4 +227,5 @@ def read_dxf(path: str | Path, unit: str, tol: float) -> Drawing:
 
     for entity in doc.modelspace():
         visit(entity, str(entity.dxf.handle), 0)
-    return Drawing(paths, note, ignored)
+    locked = frozenset(layer.dxf.name for layer in doc.layers if layer.is_locked())
+    return Drawing(paths, note, ignored, locked=locked)

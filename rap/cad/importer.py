@@ -254,7 +254,8 @@ def _import(path: str | Path, options: ImportOptions) -> ImportResult:
             found = left_out_text(ignored) or "nothing"
             raise Problem(f"no closed loop found: no lines, arcs, circles, ellipses, splines, "
                           f"polylines or paths (found {found})")
-        parts, gaps, made_by, kept = _parts(paths, grid, options, ignored, drawing.page)
+        parts, gaps, made_by, kept = _parts(paths, grid, options, ignored, drawing.page,
+                                             drawing.locked)
     except Problem as exc:
         raise DrawingError(source, str(exc)) from None
     doc = assembly_document(path.stem or "drawing", parts, grid, options.units)
@@ -320,7 +321,8 @@ def _overlay(kept, grid: Grid, options: ImportOptions):
     return overlay_parts(join_loops(kept, grid.step_float, options.units), grid, options.units)
 
 
-def _parts(paths, grid: Grid, options: ImportOptions, ignored: Counter, page=None):
+def _parts(paths, grid: Grid, options: ImportOptions, ignored: Counter, page=None,
+           locked=frozenset()):
     """(parts, gaps closed, how they were made, the paths read) for the chosen mode (see
     ``ImportOptions``)."""
     if options.parts in ("loop", "layer"):
@@ -329,7 +331,7 @@ def _parts(paths, grid: Grid, options: ImportOptions, ignored: Counter, page=Non
     from rap.cad.arrangement.annotations import sort_out
     from rap.cad.arrangement.faces import face_parts
 
-    sorting = sort_out(paths, grid.step_float, page)
+    sorting = sort_out(paths, grid.step_float, page, locked)
     ignored.update(sorting.left_out)
     if not sorting.kept:
         _open_loop_gap(paths, grid, options)

@@ -168,6 +168,12 @@ def _layer_name(group, order: int) -> tuple[str, set[str]]:
     return name, {n for n in (name, group.id, label) if n}
 
 
+def _locked(group) -> bool:
+    """Is the layer locked in Inkscape (``sodipodi:insensitive="true"``)?"""
+    return any(str(k).endswith("insensitive") and str(v).strip().lower() == "true"
+               for k, v in group.values.items())
+
+
 def _dashed(el) -> bool:
     """Is the element stroked with dashes (a construction or centre line by drafting custom)?"""
     dash = el.values.get("stroke-dasharray")
@@ -222,6 +228,7 @@ def read_svg(path: str | Path, unit: str, tol: float, scale: float | None = None
     paths: list[DrawnPath] = []
     ignored: Counter = Counter()
     names: dict[str, set[str]] = {}
+    locked: set[str] = set()
     order = 0
 
     def walk(group, layer: str | None) -> None:
@@ -232,6 +239,8 @@ def read_svg(path: str | Path, unit: str, tol: float, scale: float | None = None
                 if layer is None:
                     name, aliases = _layer_name(el, order)
                     names[name] = aliases
+                    if _locked(el):
+                        locked.add(name)
                     walk(el, name)
                 else:
                     walk(el, layer)
@@ -250,7 +259,7 @@ def read_svg(path: str | Path, unit: str, tol: float, scale: float | None = None
                     ignored[(tag, layer)] += 1
 
     walk(svg, None)
-    return Drawing(paths, note, ignored, names, _page(svg, T))
+    return Drawing(paths, note, ignored, names, _page(svg, T), frozenset(locked))
 
 
 def _page(svg, T: _Affine) -> tuple[float, float, float, float] | None:

@@ -4,6 +4,10 @@
 kind and layer, so that an annotation never stops an import. Rules, in order; each one is a
 drafting convention, and each left-out path is reported (``Sorting.left_out``):
 
+0. *reference layers*: a layer the drawing's editor locked (``Drawing.locked``: Inkscape's lock,
+   a DXF layer's lock flag) with a path that runs through the inside of a closed outline on an
+   unlocked layer is a template or construction drawing kept under the parts: all its paths are
+   left out. A locked layer drawn apart from the others stays;
 1. *construction*: a path drawn in a centre, hidden, phantom or dashed linetype (DXF) or with a
    stroke-dasharray (SVG) is a construction line, never an outline (``DrawnPath.construction``);
 2. *open paths that bound nothing*: an open path with an end that meets no other kept path within
@@ -281,13 +285,32 @@ def _loop_rules(loops: list[_Loop], tol: float, page, construction: list, drop) 
     return dropped
 
 
-def sort_out(paths: list[DrawnPath], tol: float, page=None) -> Sorting:
+def _reference_layers(paths: list[DrawnPath], locked: frozenset, tol: float) -> set[str]:
+    """Rule 0: the locked layers with a path through the inside of an unlocked layer's loop."""
+    import shapely
+
+    drawn = {p.source.layer for p in paths}
+    if not locked & drawn:
+        return set()
+    outlines = [loop_polygon(p) for p in paths
+                if p.source.layer not in locked and _is_closed(p, tol)]
+    inside = shapely.union_all(outlines).buffer(-tol) if outlines else shapely.Polygon()
+    if inside.is_empty:
+        return set()
+    return {p.source.layer for p in paths if p.source.layer in locked
+            and path_line(p).intersection(inside).length > tol}
+
+
+def sort_out(paths: list[DrawnPath], tol: float, page=None, locked=frozenset()) -> Sorting:
     """Keep the paths that can bound a part (see the module doc); ``page``: the page's box in
-    output units, when the drawing has one (rule 8)."""
+    output units, when the drawing has one (rule 8); ``locked``: the locked layers (rule 0)."""
     left: Counter = Counter()
-    kept = [p.construction is None for p in paths]
+    reference = _reference_layers(paths, frozenset(locked), tol)
+    kept = [p.construction is None and p.source.layer not in reference for p in paths]
     for p in paths:
-        if p.construction is not None:
+        if p.source.layer in reference:
+            left[("path of a locked layer drawn over a part", p.source.layer)] += 1
+        elif p.construction is not None:
             left[(p.construction, p.source.layer)] += 1
     construction = [path_line(p) for p in paths if p.construction is not None]
 

@@ -212,3 +212,43 @@ def test_a_bar_along_the_whole_page_is_page_furniture_not_a_part(tmp_path):
     short = import_drawing(F.write(tmp_path, "short.svg", svg.replace('x="0" y="45" width="100"',
                                                                        'x="10" y="45" width="40"')))
     assert sorted(p.id for p in short.assembly.parts) == ["a", "b", "bar"]
+
+
+# Inkscape: a locked "Template" layer drawing the square the pieces fill, and its cut line,
+# under a parts layer of two pieces; the locked layer would otherwise cross the pieces
+SVG_LOCKED_TEMPLATE = """<svg xmlns="http://www.w3.org/2000/svg"
+     xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"
+     xmlns:sodipodi="http://sodipodi.sourceforge.net/DTD/sodipodi-0.dtd"
+     width="100mm" height="100mm" viewBox="0 0 100 100">
+  <g inkscape:groupmode="layer" id="layer1" inkscape:label="Template" {lock}>
+    <rect id="frame" x="10" y="10" width="40" height="40" fill="none" stroke="black"/>
+    <path id="cut" d="M 10 10 L 50 50" stroke="black"/>
+    <path id="cut2" d="M 20 10 L 20 50" stroke="black"/>
+  </g>
+  <g inkscape:groupmode="layer" id="layer2" inkscape:label="Pieces">
+    <path id="p1" d="M 10 10 L 50 10 L 50 50 Z"/>
+    <path id="p2" d="M 10 10 L 50 50 L 10 50 Z"/>
+  </g>
+</svg>
+"""
+
+
+def test_a_locked_layer_drawn_over_the_parts_is_left_out_and_said_so(tmp_path):
+    locked = F.write(tmp_path, "locked.svg",
+                     SVG_LOCKED_TEMPLATE.format(lock='sodipodi:insensitive="true"'))
+    result = import_drawing(locked)
+    assert len(result.assembly.parts) == 2
+    assert sum(F.area(p) for p in result.assembly.parts) == 1600
+    assert "3 paths of a locked layer drawn over a part on layer 'Template'" in result.summary()
+    # unlocked, the same template is read as geometry: its cut line splits a piece in two
+    unlocked = F.write(tmp_path, "unlocked.svg", SVG_LOCKED_TEMPLATE.format(lock=""))
+    assert len(import_drawing(unlocked).assembly.parts) == 4
+
+
+def test_a_locked_layer_apart_from_the_others_stays():
+    from rap.cad.arrangement.annotations import sort_out
+
+    paths = [F.polygon([(0, 0), (10, 0), (10, 10), (0, 10)], "a", 0, "Locked"),
+             F.polygon([(20, 0), (30, 0), (30, 10), (20, 10)], "b", 1, "Parts")]
+    sorting = sort_out(paths, 0.01, locked=frozenset({"Locked"}))
+    assert len(sorting.kept) == 2 and not sorting.left_out
