@@ -31,7 +31,7 @@ from rap.geometry.exact import IVec, exact_direction, to_integers
 from rap.geometry.validation import part_pieces
 from rap.operation import Operation
 
-__all__ = ["clearance", "free_travel"]
+__all__ = ["clearance", "free_travel", "pair_travel"]
 
 
 def _hull(points: Sequence[IVec]) -> list[IVec]:
@@ -79,6 +79,12 @@ def _entry(hull: Sequence[IVec], u: IVec) -> Fraction | None:
     return lo
 
 
+def pair_travel(a: Sequence[IVec], b: Sequence[IVec], u: IVec) -> Fraction | None:
+    """How far (in multiples of ``u``) the convex piece ``a`` travels along ``u`` before entering
+    the convex piece ``b``; None when it never does. O(va vb log(va vb))."""
+    return _entry(_hull([(bx - ax, by - ay) for bx, by in b for ax, ay in a]), u)
+
+
 def _extent(piece: Sequence[IVec], u: IVec) -> tuple[int, int, int, int]:
     """(min, max) of the piece's projections on ``u`` and on its normal ``w = (-u_y, u_x)``."""
     along = [x * u[0] + y * u[1] for x, y in piece]
@@ -103,7 +109,7 @@ def free_travel(moving: Sequence[Sequence[IVec]], fixed: Sequence[Sequence[IVec]
                 break  # every later piece starts at least this far ahead
             if b_hi <= a_lo or b_w1 <= a_w0 or a_w1 <= b_w0:
                 continue  # behind the moving piece, or outside its strip
-            t = _entry(_hull([(bx - ax, by - ay) for bx, by in b for ax, ay in a]), u)
+            t = pair_travel(a, b, u)
             if t is not None and (best is None or t < best):
                 best = t
     return best

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rap.execution.clearance import _entry, _hull, clearance, free_travel
+from rap.execution.clearance import clearance, free_travel, pair_travel
 from rap.execution.tolerance import tolerance
 from rap.operation import Operation
 from rap.sim.params import DEFAULT_PARAMS
@@ -50,7 +50,6 @@ _square = st.tuples(st.integers(-30, 30), st.integers(-30, 30), st.integers(1, 6
 def test_the_pruned_travel_is_the_least_entry_over_every_piece_pair(moving, fixed, u):
     """free_travel skips pieces outside the strip and stops past the best: the same answer as
     trying every pair (squares may overlap here: only the least entry is compared)."""
-    entries = [_entry(_hull([(bx - ax, by - ay) for bx, by in b for ax, ay in a]), u)
-               for a in moving for b in fixed]
+    entries = [pair_travel(a, b, u) for a in moving for b in fixed]
     entries = [t for t in entries if t is not None]
     assert free_travel(moving, fixed, u) == (min(entries) if entries else None)
