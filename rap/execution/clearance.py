@@ -7,7 +7,7 @@ geometry leaves room for on either side. 0 for a tight fit (the moving parts are
 once); None when nothing lies across in either direction within the assembly's extent.
 
 Exact: coordinates are scaled to integers (``rap.geometry.exact``), parts are split into convex
-pieces (``rap.geometry.validation.part_pieces``), and for each moving piece ``a`` and fixed piece
+pieces (``rap.geometry.validation``), and for each moving piece ``a`` and fixed piece
 ``b`` the free travel along an integer direction ``u`` is where the ray ``t u`` first enters the
 interior of the Minkowski difference ``b - a`` (a convex polygon: the hull of the vertex
 differences). For a convex set with the origin on its boundary the ray enters the interior at once
@@ -15,20 +15,18 @@ or never, so touching pieces that slide past each other do not count, and pieces
 give 0. The travel is a ``Fraction`` of ``u``; only the final length in assembly units is a float
 (``|u|``). Cost: O(pa x pb) integer projections, plus O((va x vb) log(va x vb)) for each piece
 pair in a moving piece's strip ahead of it, nearest first, until the rest lie beyond the best
-travel found. A part's pieces are computed once per assembly (the last few are kept).
+travel found. A part's pieces come from ``assembly_pieces`` (computed once an assembly).
 """
 
 from __future__ import annotations
 
 import math
-import threading
-from collections import OrderedDict
 from fractions import Fraction
 from typing import Sequence
 
 from rap.assembly import Assembly
-from rap.geometry.exact import IVec, exact_direction, to_integers
-from rap.geometry.validation import part_pieces
+from rap.geometry.exact import IVec, exact_direction
+from rap.geometry.validation import assembly_pieces
 from rap.operation import Operation
 
 __all__ = ["clearance", "free_travel", "pair_travel"]
@@ -115,29 +113,10 @@ def free_travel(moving: Sequence[Sequence[IVec]], fixed: Sequence[Sequence[IVec]
     return best
 
 
-_PIECES: OrderedDict[tuple[str, str], tuple[int, dict]] = OrderedDict()
-_PIECES_LOCK = threading.Lock()
-
-
-def _pieces_of(assembly: Assembly) -> tuple[int, dict]:
-    """(integer scale, {part id: convex pieces}) of an assembly, kept for the last 4 (a plan's
-    steps share one assembly)."""
-    key = (assembly.geometry_hash, assembly.name)
-    with _PIECES_LOCK:
-        hit = _PIECES.get(key)
-    if hit is None:
-        ia = to_integers(assembly)
-        hit = (ia.scale, dict(zip((p.id for p in ia.parts), part_pieces(ia))))
-        with _PIECES_LOCK:
-            _PIECES[key] = hit
-            while len(_PIECES) > 4:
-                _PIECES.popitem(last=False)
-    return hit
-
-
 def clearance(assembly: Assembly, operation: Operation) -> float | None:
     """The step's clearance in assembly units (module doc)."""
-    scale, pieces = _pieces_of(assembly)
+    ia, part_pieces = assembly_pieces(assembly)
+    scale, pieces = ia.scale, dict(zip(ia.ids, part_pieces))
     moving = [pc for i in sorted(operation.moving) for pc in pieces[i]]
     fixed = [pc for i in sorted(operation.fixed) for pc in pieces[i]]
     d = exact_direction(operation.exact_direction or operation.direction)

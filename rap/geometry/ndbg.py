@@ -38,7 +38,7 @@ from rap.assembly import Assembly
 from rap.geometry.blocking import BlockedSet, piece_tree, tree_blocking_arcs
 from rap.geometry.exact import (IVec, angle_key, arc_interior_vector, arc_middle_unit,
                                 exact_direction, in_open_arc, primitive, to_integers, unit)
-from rap.geometry.validation import part_pieces
+from rap.geometry.validation import assembly_pieces
 
 __all__ = ["Cell", "NDBG", "build_ndbg", "build_ndbg_from_pieces", "ndbg_of", "cell_index",
            "cell_at", "blocked_at", "is_feasible_operation", "is_free_operation"]
@@ -228,8 +228,10 @@ def build_ndbg_from_pieces(ids: Sequence[str], pieces: Sequence[Sequence[Sequenc
 
 def build_ndbg(assembly: Assembly) -> NDBG:
     """Exact NDBG of one-step translations of a (valid) assembly; see the module docstring."""
-    ia = to_integers(assembly)
-    pieces = part_pieces(ia) if len(ia.parts) > 1 else [[] for _ in ia.parts]  # one part: no pair
+    if len(assembly.parts) < 2:  # one part: no pair, no pieces
+        ia = to_integers(assembly)
+        return build_ndbg_from_pieces(ia.ids, [[] for _ in ia.parts], assembly.name, ia.scale)
+    ia, pieces = assembly_pieces(assembly)
     return build_ndbg_from_pieces(ia.ids, pieces, assembly.name, ia.scale)
 
 

@@ -21,6 +21,8 @@ parts whose boxes overlap (k = convex pieces per part), i.e. O(n^2 q^2) in the w
 
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
 from typing import Sequence
 
 import numpy as np
@@ -31,7 +33,8 @@ from rap.geometry.exact import IVec, IntAssembly, orient, to_integers
 from rap.geometry.triangulate import convex_pieces
 
 __all__ = ["validate_assembly", "validate_int_assembly", "segments_intersect",
-           "point_in_ring", "convex_interiors_overlap", "ring_is_simple", "part_pieces"]
+           "point_in_ring", "convex_interiors_overlap", "ring_is_simple", "part_pieces",
+           "assembly_pieces"]
 
 
 def _on_segment(a, b, p) -> bool:
@@ -226,5 +229,39 @@ def validate_int_assembly(ia: IntAssembly) -> list[list[tuple[IVec, ...]]]:
 
 
 def validate_assembly(assembly: Assembly) -> None:
-    """Raise ``AssemblyError`` for the first exact geometric problem; None when valid."""
-    validate_int_assembly(to_integers(assembly))
+    """Raise ``AssemblyError`` for the first exact geometric problem; None when valid. The
+    integer assembly and its pieces are kept for ``assembly_pieces``."""
+    ia = to_integers(assembly)
+    pieces = validate_int_assembly(ia)
+    _remember(_pieces_key(assembly), (ia, pieces))
+
+
+_PIECES: OrderedDict[tuple[str, str], tuple[IntAssembly, list]] = OrderedDict()
+_PIECES_SIZE = 8
+_PIECES_LOCK = threading.Lock()
+
+
+def _pieces_key(assembly: Assembly) -> tuple[str, str]:
+    return assembly.geometry_hash, assembly.name
+
+
+def _remember(key, value) -> None:
+    with _PIECES_LOCK:
+        _PIECES[key] = value
+        _PIECES.move_to_end(key)
+        while len(_PIECES) > _PIECES_SIZE:
+            _PIECES.popitem(last=False)
+
+
+def assembly_pieces(assembly: Assembly) -> tuple[IntAssembly, list[list[tuple[IVec, ...]]]]:
+    """(the assembly scaled to integers, the convex pieces of each part), the one home of both:
+    validation, the NDBG and the clearances share them, kept for the last ``_PIECES_SIZE``
+    assemblies (by geometry hash and name; seconds for parts of thousands of vertices)."""
+    key = _pieces_key(assembly)
+    with _PIECES_LOCK:
+        hit = _PIECES.get(key)
+    if hit is None:
+        ia = to_integers(assembly)
+        hit = (ia, part_pieces(ia))
+        _remember(key, hit)
+    return hit
