@@ -117,7 +117,10 @@ def gear_sheet(kind: str = "apart") -> Assembly:
     return parse_assembly({"name": f"gear-sheet-{kind}", "units": UNITS, "parts": parts})
 
 
-def _run(path: Path) -> tuple[float, dict]:
+def cold_plan(path: Path) -> tuple[float, int, dict]:
+    """(seconds, exit status, the plan document with ``stdout`` and ``stderr`` added) of
+    ``python -m rap.cli plan PATH`` in a fresh process with an empty score cache; exits this
+    script when the status is neither 0 nor 1 (benchmarks/drawings.py shares it)."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "plan.json"
         cmd = [sys.executable, "-m", "rap.cli", "plan", str(path), "--cache",
@@ -128,8 +131,8 @@ def _run(path: Path) -> tuple[float, dict]:
         if p.returncode not in (0, 1):
             sys.exit(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr}")
         doc = json.loads(out.read_text()) if out.exists() else {}
-        doc["stdout"] = p.stdout
-        return wall, doc
+        doc["stdout"], doc["stderr"] = p.stdout, p.stderr
+        return wall, p.returncode, doc
 
 
 def main() -> None:
@@ -151,7 +154,7 @@ def main() -> None:
                 paths.append(path)
         for path in paths:
             for _ in range(args.repeats):
-                wall, doc = _run(path)
+                wall, _, doc = cold_plan(path)
                 steps = doc.get("steps") or []
                 sims = [ln for ln in doc["stdout"].splitlines() if "simulations run" in ln]
                 print(f"{path.name}: cold plan {wall:.1f} s, R {doc.get('robustness')}, "

@@ -16,7 +16,6 @@ from __future__ import annotations
 import json
 import re
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -25,7 +24,6 @@ from pathlib import Path
 from rap.assembly import assembly_to_json
 from rap.cad import DrawingError, ImportOptions, import_drawing
 
-ROOT = Path(__file__).resolve().parents[1]
 
 #: the one flag a refusal may name, as ImportOptions fields
 _FLAGS = (
@@ -79,24 +77,20 @@ def _row(path: Path, result, seconds: float, flags: str) -> str:
 
 def _plan_row(path: Path, result, options: dict) -> str:
     """A cold ``plan`` of the drawing (or of its import with the flag), as a table row."""
+    from curved_parts import cold_plan  # benchmarks/, this script's folder
+
     with tempfile.TemporaryDirectory() as tmp:
         target = path
         if options:
             target = Path(tmp) / f"{path.stem}.json"
             target.write_text(json.dumps(assembly_to_json(result.assembly)))
-        out = Path(tmp) / "plan.json"
-        cmd = [sys.executable, "-m", "rap.cli", "plan", str(target), "--cache",
-               str(Path(tmp) / "scores.json"), "--out", str(out)]
-        t0 = time.perf_counter()
-        p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
-        wall = time.perf_counter() - t0
-        doc = json.loads(out.read_text()) if out.exists() else {}
-    if p.returncode == 0:
+        wall, status, doc = cold_plan(target)
+    if status == 0:
         what = f"R {doc['robustness']:.3f}"
     else:
-        lines = p.stderr.strip().splitlines()
+        lines = doc["stderr"].strip().splitlines()
         what = lines[-1][:140] if lines else ""
-    return f"| {path.name} | {p.returncode} | {what} | {wall:.1f} |"
+    return f"| {path.name} | {status} | {what} | {wall:.1f} |"
 
 
 def main(*argv: str) -> None:
