@@ -25,33 +25,12 @@ from fractions import Fraction
 from typing import Sequence
 
 from rap.assembly import Assembly
+from rap.geometry.blocking import convex_hull
 from rap.geometry.exact import IVec, exact_direction
 from rap.geometry.validation import assembly_pieces
 from rap.operation import Operation
 
 __all__ = ["clearance", "free_travel", "pair_travel"]
-
-
-def _hull(points: Sequence[IVec]) -> list[IVec]:
-    """Convex hull, CCW, no collinear points (Andrew's monotone chain, integer crosses)."""
-    pts = sorted(set(points))
-    if len(pts) < 3:
-        return pts
-
-    def turn(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[IVec] = []
-    for p in pts:
-        while len(lower) >= 2 and turn(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[IVec] = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and turn(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return lower[:-1] + upper[:-1]
 
 
 def _entry(hull: Sequence[IVec], u: IVec) -> Fraction | None:
@@ -80,7 +59,7 @@ def _entry(hull: Sequence[IVec], u: IVec) -> Fraction | None:
 def pair_travel(a: Sequence[IVec], b: Sequence[IVec], u: IVec) -> Fraction | None:
     """How far (in multiples of ``u``) the convex piece ``a`` travels along ``u`` before entering
     the convex piece ``b``; None when it never does. O(va vb log(va vb))."""
-    return _entry(_hull([(bx - ax, by - ay) for bx, by in b for ax, ay in a]), u)
+    return _entry(convex_hull([(bx - ax, by - ay) for bx, by in b for ax, ay in a]), u)
 
 
 def _extent(piece: Sequence[IVec], u: IVec) -> tuple[int, int, int, int]:
