@@ -1,9 +1,10 @@
 """The simulated arm against the planar rollouts' prediction, both under the shipped cell's errors
 (issue 46's "the arm with default errors"; docs/ROBOT.md, "Errors and rollouts").
 
-    python benchmarks/arm_vs_rollouts.py [--runs 50]
+    python benchmarks/arm_vs_rollouts.py [--runs 50] [--only NAME ...] [--case NAME=PLAN:ASSEMBLY ...]
 
-For each robot plan of tests/robot/data (the stack, the tangram, the 22-brick wall): the planar
+For each robot plan of tests/robot/data (the stack, the tangram, the 22-brick wall; ``--only``
+some of them), and each ``--case`` (a plan file of ``rap-farm plan`` and its assembly): the planar
 sequence success predicted by rollouts (``rap.execution``, waves to +-0.05) with the scores' force
 noise (the cell's default) and without it (``[errors] force_noise = false``: a stiff
 position-controlled arm, position errors only), and the success of ``--runs`` executions on the
@@ -28,7 +29,18 @@ CASES = [("stack", "assemblies/cells/stack.json"), ("tangram", "assemblies/unsee
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=50)
+    ap.add_argument("--only", nargs="*", help="of the shipped robot plans, only these")
+    ap.add_argument("--case", action="append", default=[], metavar="NAME=PLAN:ASSEMBLY",
+                    help="one more plan (a rap-farm plan file) and its assembly")
     args = ap.parse_args()
+    cases = [(n, ROOT / "tests/robot/data" / f"{n}.plan.json", ROOT / a) for n, a in CASES
+             if args.only is None or n in args.only]
+    for spec in args.case:
+        name, _, paths = spec.partition("=")
+        plan_path, _, asm_path = paths.partition(":")
+        if not (name and plan_path and asm_path):
+            ap.error(f"--case {spec!r}: expected NAME=PLAN:ASSEMBLY")
+        cases.append((name, Path(plan_path), Path(asm_path)))
     from rap.commands._rollouts import cell_errors, mm_per_unit
     from rap.plan.scoring.local_simulator import LocalSimulator
     from rap.robot.arm_sim import DEFAULT_ARM_SIM, run_arm
@@ -43,19 +55,29 @@ def main() -> None:
     print("| plan | steps | R | rollouts, force noise | rollouts, position errors only | "
           "arm executed | arm - position-only |")
     print("|---|---:|---:|---|---|---|---:|")
+    lost = []
     try:
-        for name, asm_path in CASES:
-            plan, _, asm = load_plan_and_assembly(ROOT / "tests/robot/data" / f"{name}.plan.json",
-                                                  ROOT / asm_path)
+        for name, plan_path, asm_path in cases:
+            plan, _, asm = load_plan_and_assembly(plan_path, asm_path)
             pred, stiff = (run_planar(plan, asm, trials=None, seed=0, errors=e,
                                       mm_per_unit=mm_per_unit(cell, asm), runner=sim).success
                            for e in (errors, replace(errors, force_noise=False)))
-            arm = run_arm(build_program(plan, asm, cell), asm, trials=args.runs, seed=0,
-                          params=replace(DEFAULT_ARM_SIM, errors=errors)).success
+            ran = run_arm(build_program(plan, asm, cell), asm, trials=args.runs, seed=0,
+                          params=replace(DEFAULT_ARM_SIM, errors=errors))
+            arm = ran.success
             print(f"| {name} | {len(plan.steps)} | {plan.robustness:.3f} | {pred.text()} | "
                   f"{stiff.text()} | {arm.text()} | {arm.value - stiff.value:+.3f} |", flush=True)
+            if abs(arm.value - stiff.value) > 0.1:
+                lost.append((name, plan, ran.steps))
     finally:
         sim.close()
+    for name, plan, steps in lost:  # where the arm fails and the planar rollouts do not
+        print(f"\n{name}: the steps at which arm runs ended (reached, inserted, jammed, the arm "
+              f"touching a placed part)")
+        for k, (step, c) in enumerate(zip(plan.steps, steps)):
+            if c.reached != c.inserted or c.jammed or c.arm_contacts:
+                print(f"  step {k + 1} ({', '.join(sorted(step.moving))}): {c.reached}, "
+                      f"{c.inserted}, {c.jammed}, {c.arm_contacts}")
 
 
 if __name__ == "__main__":

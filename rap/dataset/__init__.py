@@ -36,10 +36,9 @@ metadata), ``lock`` (one writer), ``reading`` (shards, corrupt shards, duplicate
 This package's names below are its public interface.
 """
 
+import importlib
+
 from rap.dataset.lock import DatasetBusyError, DatasetLock, lock_dataset
-from rap.dataset.reading import (CorruptShardError, Duplicates, corrupt_shards, count_rows,
-                                 duplicate_keys, existing_keys, iter_batches, iter_shard_batches,
-                                 open_dataset, quarantine, read_table, shard_files, shard_problem)
 from rap.dataset.schema import (GEOMETRY_DIR, IMAGE_BYTES, IMAGE_SIZE, LOCK_FILE, METADATA_FILE,
                                 QUARANTINE_DIR, SCHEMA, SCHEMA_VERSION, DatasetMeta, decode_images,
                                 rows_to_table)
@@ -82,3 +81,19 @@ __all__ = [
     "clean_partial_files",
     "committed_file_mode",
 ]
+
+#: the names of ``reading``, imported at their first use (PEP 562): reading needs pyarrow.dataset,
+#: which imports pandas (about 0.7 s), and a process that only writes rows (a simulation actor,
+#: ``rap.labelling.rows``) never reads a dataset
+_READING = {"CorruptShardError", "Duplicates", "corrupt_shards", "count_rows", "duplicate_keys",
+            "existing_keys", "iter_batches", "iter_shard_batches", "open_dataset", "quarantine",
+            "read_table", "shard_files", "shard_problem"}
+
+
+def __getattr__(name: str):
+    if name in _READING:
+        value = getattr(importlib.import_module("rap.dataset.reading"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'rap.dataset' has no attribute {name!r}")
+
