@@ -105,10 +105,11 @@ def execute_command(
     typer.echo(f"kinematic check: {len(program.waypoints)} waypoints reached by the "
                f"{program.cell.robot.arm} ({report.solves} points solved"
                f"{', IK branch ' + report.branch if report.branch else ''})")
-    typer.echo("step  part            reached  inserted  jammed  arm touched a placed part")
+    typer.echo("step  part            reached  inserted  jammed  arm touched a placed part, "
+               "a placed part off its goal after the step")
     for s, c in zip(program.steps, out.steps):
         typer.echo(f"{s.index:>4}  {s.part[:14]:<14}  {c.reached:>7}  {c.inserted:>8}  "
-                   f"{c.jammed:>6}  {c.arm_contacts:>3}")
+                   f"{c.jammed:>6}  {c.arm_contacts:>3}  {c.displaced:>3}")
     typer.echo(f"arm success {out.success.text()} beside {_r_text(plan_r)}; {out.seconds:.1f} s")
     if gif is not None:
         from rap.robot.gif import write_gif

@@ -12,7 +12,8 @@ Model.
   ``density_kg_m3``, Coulomb friction ``friction`` (the planner's ``SimParams.friction``), each
   piece shrunk by ``inset_m`` so that parts that touch when assembled are not pressed together.
   The fixture is static; placed parts are dynamic and stay where the physics leaves them, so a
-  later step meets the earlier ones as they actually are.
+  later step meets the earlier ones as they actually are (``displaced``: the trials in which an
+  earlier placed part lay off its goal once a step had settled).
 * **Arm, kinematic**: the cell's arm (the Panda's URDF, or a UR built from its DH rows,
   ``rap.robot.arms.ur_model``); the joints are set (``resetJointState``) along the IK path
   (the Panda's ``rap.robot.kinematics.IkSolver``, warm-started; a UR's analytic solution on the
@@ -91,6 +92,7 @@ class StepCounts:
     inserted: int = 0
     jammed: int = 0
     arm_contacts: int = 0  # trials in which the arm touched a placed part during this step
+    displaced: int = 0  # trials in which an earlier placed part lay off its goal after this step
 
 
 @dataclass(frozen=True)
@@ -287,6 +289,7 @@ def _run_trial(program, assembly, p, rng, counts, frames, camera, make_solver):
             if frames is not None:
                 frames.append(camera(w))
             c.arm_contacts += touched
+            c.displaced += not all(scene.goal_ok(q) for q in scene.placed[:-1])
             if not inserted:
                 ok = False
                 break

@@ -48,7 +48,8 @@ def test_execute_on_the_arm_reports_steps_and_writes_a_gif(run_cli, tmp_path):
     code, out, _ = run_cli("execute", STACK_PLAN, "--assembly", STACK, "--trials", "1",
                            "--gif", gif)
     assert code == 0 and "arm success 1.000" in out and "R = 0.980" in out
-    assert "   3  block3                1         1       0    0" in out
+    assert "   3  block3                1         1       0    0    0" in out
+    assert "a placed part off its goal after the step" in out
     from PIL import Image
 
     with Image.open(gif) as im:
@@ -68,3 +69,22 @@ def test_the_control_starts_every_step_exactly_in_place(stack, monkeypatch):
     seen.clear()
     run_planar(plan, asm, trials=3, seed=0)
     assert any(seen)  # carried: later steps see the earlier parts' poses
+
+
+def test_a_placed_part_pushed_off_its_goal_is_counted_after_each_later_step(stack, monkeypatch):
+    """``displaced``: after each step, whether an earlier placed part (not the step's own) lies
+    off its goal; a run with such a part fails at the end even when every insertion succeeded.
+    Here block1 reads as pushed off once block2 is placed (the physics of a push, stood in for)."""
+    import rap.robot.arm_sim as arm_sim
+
+    real = arm_sim._Scene.goal_ok
+
+    def goal_ok(scene, pid):
+        return real(scene, pid) and not (pid == "block1" and "block2" in scene.placed)
+
+    monkeypatch.setattr(arm_sim._Scene, "goal_ok", goal_ok)
+    plan, _, asm = stack
+    out = run_arm(build_program(plan, asm, Cell()), asm, trials=1, seed=0)
+    assert [(c.inserted, c.jammed, c.displaced) for c in out.steps] == [(1, 0, 0), (1, 0, 1),
+                                                                        (1, 0, 1)]
+    assert out.success.successes == 0
