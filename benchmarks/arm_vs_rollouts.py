@@ -72,12 +72,12 @@ def main() -> None:
     finally:
         sim.close()
     for name, plan, steps in lost:  # where the arm fails and the planar rollouts do not
-        print(f"\n{name}: the steps at which arm runs ended (reached, inserted, jammed, the arm "
-              f"touching a placed part)")
+        print(f"\n{name}: the steps at which arm runs went wrong (reached, inserted, jammed, the "
+              f"arm touching a placed part, a placed part off its goal after the step)")
         for k, (step, c) in enumerate(zip(plan.steps, steps)):
-            if c.reached != c.inserted or c.jammed or c.arm_contacts:
+            if c.reached != c.inserted or c.jammed or c.arm_contacts or c.displaced:
                 print(f"  step {k + 1} ({', '.join(sorted(step.moving))}): {c.reached}, "
-                      f"{c.inserted}, {c.jammed}, {c.arm_contacts}")
+                      f"{c.inserted}, {c.jammed}, {c.arm_contacts}, {c.displaced}")
 
 
 if __name__ == "__main__":

@@ -96,4 +96,3 @@ def __getattr__(name: str):
         globals()[name] = value
         return value
     raise AttributeError(f"module 'rap.dataset' has no attribute {name!r}")
-
