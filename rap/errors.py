@@ -120,14 +120,26 @@ def sigterm_as_interrupt(*, keep: bool = False) -> Iterator[None]:
 
 def _redeliver(previous):
     """An unraisable-exception hook that raises a dropped ``KeyboardInterrupt`` again in the main
-    thread (as Ctrl-C: ``_thread.interrupt_main``, from a thread of its own 10 ms later, once the
-    hook has returned: raised inside the hook, it would be dropped again) and passes anything else
-    to ``previous``."""
+    thread and passes anything else to ``previous``.
+
+    The interrupt comes back through SIGTERM's slot, not SIGINT's: in the main thread, where a
+    signal's interrupt is dropped, the hook installs a one-shot handler for SIGTERM (it puts back
+    the disposition it found, then raises ``KeyboardInterrupt``) and a thread of its own fires it
+    10 ms later with ``_thread.interrupt_main(SIGTERM)``, once the hook has returned (raised
+    inside the hook, it would be dropped again). ``interrupt_main`` does nothing for a signal
+    that Python does not handle, and a command started in the background by a shell without job
+    control (``rap-farm label ... &`` in a script, ``nohup``) inherits SIGINT ignored; SIGTERM's
+    handler is this module's own. Outside the main thread (no signal handler can be installed
+    there) the interrupt comes back as Ctrl-C, where SIGINT is handled."""
 
     def hook(unraisable) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
             try:
-                _thread.start_new_thread(_interrupt_main_soon, ())
+                signum = signal.SIGINT
+                if threading.current_thread() is threading.main_thread():
+                    signal.signal(signal.SIGTERM, _one_shot(signal.getsignal(signal.SIGTERM)))
+                    signum = signal.SIGTERM
+                _thread.start_new_thread(_interrupt_main_soon, (signum,))
                 return
             except RuntimeError:  # the interpreter is shutting down: the interrupt has no use
                 pass
@@ -136,6 +148,16 @@ def _redeliver(previous):
     return hook
 
 
-def _interrupt_main_soon() -> None:
+def _one_shot(disposition):
+    """A SIGTERM handler that puts ``disposition`` back, then raises ``KeyboardInterrupt``."""
+
+    def handler(signum, frame) -> None:
+        signal.signal(signal.SIGTERM, disposition if disposition is not None else signal.SIG_DFL)
+        raise KeyboardInterrupt
+
+    return handler
+
+
+def _interrupt_main_soon(signum: int) -> None:
     time.sleep(0.01)
-    _thread.interrupt_main()
+    _thread.interrupt_main(signum)

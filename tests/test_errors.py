@@ -97,6 +97,55 @@ def test_an_interrupt_python_would_drop_is_raised_again_in_the_main_thread(own_h
     assert sys.unraisablehook is hook
 
 
+@pytest.fixture
+def sigint_ignored():
+    """SIGINT ignored, as a command started in the background by a shell without job control
+    (``rap-farm label ... &`` in a script, ``nohup``) inherits it."""
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
+@pytest.mark.parametrize("interrupted_by", ["SIGTERM", "a finalizer"])
+def test_a_dropped_interrupt_comes_back_with_sigint_ignored(own_handler, sigint_ignored,
+                                                            interrupted_by):
+    """Found by a test run started in the background: ``_thread.interrupt_main()`` (Ctrl-C) does
+    nothing where SIGINT is ignored; the interrupt comes back through SIGTERM's slot. Whether
+    it came from a SIGTERM (whose handler then ignores the next) or not, the block raises it once
+    and leaves SIGINT ignored and SIGTERM's disposition as it was before the block."""
+    with pytest.raises(KeyboardInterrupt):
+        with sigterm_as_interrupt():
+            if interrupted_by == "SIGTERM":
+                with _Holder():
+                    pass  # the handler's KeyboardInterrupt lands in __del__ and is dropped
+            else:
+                _DropsAnInterrupt()
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline:
+                pass
+            pytest.fail("the dropped interrupt did not reach the main thread in 30 s")
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+class _Holder:
+    """Sends this process SIGTERM from its finalizer and lets Python run the handler there: the
+    handler's KeyboardInterrupt is raised inside ``__del__`` and dropped."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(1000):  # the handler runs at one of these bytecodes
+            pass
+
+
 def test_other_unraisable_exceptions_still_reach_the_previous_hook(own_handler):
     import sys
 
