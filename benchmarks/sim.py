@@ -103,7 +103,7 @@ def main(argv=None) -> None:
         t_op = time.perf_counter() - t0
         # the control loop alone, on a fresh scene with the same seed (build excluded)
         scene = build_scene(a, o, params)
-        n_shapes = len(scene.movers[0].shapes) + len(scene.fixed_shapes[0])
+        n_shapes = len(scene.moving_shapes[0]) + len(scene.fixed_shapes[0])
         t1 = time.perf_counter()
         info = run_trials(scene, params, np.random.default_rng(args.seed))
         t_ship = time.perf_counter() - t1

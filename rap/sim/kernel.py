@@ -1,4 +1,5 @@
-"""The simulator's compiled control loop: numba code that drives Chipmunk through pymunk's C API.
+"""The simulator's compiled control loop: numba code that drives Chipmunk through pymunk's C API;
+and the scenes' polygons made through the same C API (``new_poly``).
 
 One call of ``control_steps`` runs the proportional controller and the physics for every live trial
 of one space, step after step, without returning to Python until a trial is decided (success or
@@ -31,12 +32,15 @@ import threading
 
 import numpy as np
 import numba
+import pymunk
+from pymunk._chipmunk import ffi as _ffi
+from pymunk._chipmunk import lib as _cp
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
 __all__ = ["ChipmunkApi", "control_steps", "apply_and_step", "replay_steps", "DECIDED", "RAN_OUT",
-           "CONSTANTS"]
+           "CONSTANTS", "new_poly"]
 
 DECIDED = 1  # a trial was decided at step c: commands for step c are in the set buffer, not applied
 RAN_OUT = 0  # reached c_end
@@ -303,3 +307,29 @@ def control_steps(ptrs, K, c, c_end, gnum, get, snum, sarr, ox, oy, carrot, best
         body_steps += na * k_sub
         c += 1
     return RAN_OUT, c, body_steps
+
+
+# -- polygons through the C API -----------------------------------------------------------------
+
+_IDENTITY = tuple(pymunk.Transform.identity())  # what pymunk.Poly passes without a transform
+
+
+def new_poly(body_ptr, vertices: list[tuple[float, float]], radius: float):
+    """A Chipmunk polygon on the body ``body_ptr`` (a ``cpBody*``), made as ``pymunk.Poly`` makes
+    one (the convex hull of ``vertices``, no transform; the same C calls, so the same scene bit for
+    bit) but without its Python object: a scene holds a shape per piece per trial, and pymunk's
+    bookkeeping per shape costs several times Chipmunk's own work. Added and removed with
+    ``cpSpaceAddShape``/``cpSpaceRemoveShape``. The ``cpShape*`` is freed by pymunk's own rule
+    when it is collected: taken out of its space if it is still in one, then freed. Any order of
+    collection is safe: a ``pymunk.Space`` or ``pymunk.Body`` that goes first takes its shapes out
+    of the space, and a space's static body lives inside its ``cpSpace`` (tests/sim,
+    ``test_a_scene_dropped_in_any_order_frees_its_shapes_cleanly``)."""
+    return _ffi.gc(_cp.cpPolyShapeNew(body_ptr, len(vertices), vertices, _IDENTITY, radius),
+                   _free_shape)
+
+
+def _free_shape(ptr) -> None:
+    space = _cp.cpShapeGetSpace(ptr)
+    if space != _ffi.NULL:
+        _cp.cpSpaceRemoveShape(space, ptr)
+    _cp.cpShapeFree(ptr)

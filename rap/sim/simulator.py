@@ -1,7 +1,7 @@
 """Robustness of an assembly operation: success rate of a noisy controlled insertion (pymunk).
 
 Model (paper, section "Physics Simulation"): the fixed subassembly is static; the moving one is a
-single rigid dynamic body (all its parts' convex pieces as ``pymunk.Poly`` with radius
+single rigid dynamic body (all its parts' convex pieces as Chipmunk polygons with radius
 ``params.poly_radius``, 0 by default, uniform density; a part of more than ``params.shape_pieces``
 pieces, a curved part from a drawing, through at most that many, within ``shape_tolerance`` of
 it: ``rap.sim.outline``); no gravity. A proportional feedback
@@ -47,6 +47,7 @@ from pymunk._chipmunk import lib as _cp
 from rap.assembly import Assembly
 from rap.operation import Operation
 from rap.sim import kernel
+from rap.sim.kernel import new_poly
 from rap.sim.params import DEFAULT_PARAMS, SimParams
 from rap.sim.layouts import TrialLayout, posed_points
 from rap.sim.placement import placement
@@ -92,7 +93,8 @@ class Scene:
     space: pymunk.Space
     movers: list[pymunk.Body]
     mover_ids: list[int]  # pymunk Body.id of each trial's moving body (batch BODY_ID values)
-    fixed_shapes: list[list[pymunk.Shape]]  # per trial, on space.static_body
+    moving_shapes: list[list]  # per trial: its moving pieces, cpShape* on its moving body
+    fixed_shapes: list[list]  # per trial: its fixed pieces, cpShape* on the static body
     origins: np.ndarray  # [trials, 2] world position of each trial's frame
     start: np.ndarray  # [2] start position of the moving body (trial frame)
     goal: np.ndarray  # [2] goal position of the moving body (trial frame)
@@ -153,8 +155,9 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
     space.collision_slop = params.collision_slop
     spacing = params.trial_spacing * params.world_size
     origins = np.array([[(k % 32) * spacing, (k // 32) * spacing] for k in range(n)], dtype=float)
-    movers, fixed_shapes = [], []
-    ground = space.static_body
+    movers, moving_shapes, fixed_shapes = [], [], []
+    ground_ptr = space.static_body._body
+    add_shape, space_ptr = _cp.cpSpaceAddShape, space._space
     # shape properties go straight to Chipmunk (pymunk's property setters call the same functions
     # through a Python layer that costs more than the shape itself; 100 trials x pieces add up)
     set_friction, set_elasticity = _cp.cpShapeSetFriction, _cp.cpShapeSetElasticity
@@ -164,32 +167,34 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
         body = pymunk.Body()
         shapes = []
         for pc in moving_of[k]:
-            sh = pymunk.Poly(body, pc, radius=params.poly_radius)
-            c = sh._shape
+            c = new_poly(body._body, pc, params.poly_radius)
             set_density(c, params.density)
             set_friction(c, params.friction)
             set_elasticity(c, params.elasticity)
             set_filter(c, filt)
-            shapes.append(sh)
+            shapes.append(c)
         body.position = tuple(origins[k] + start)
         body.angle = 0.0
-        space.add(body, *shapes)
+        space.add(body)
+        for c in shapes:
+            add_shape(space_ptr, c)
         movers.append(body)
+        moving_shapes.append(shapes)
         ox, oy = float(origins[k, 0]), float(origins[k, 1])
         sshapes = []
         for pc in fixed_of[k]:
-            sh = pymunk.Poly(ground, [(x + ox, y + oy) for x, y in pc], radius=params.poly_radius)
-            c = sh._shape
+            c = new_poly(ground_ptr, [(x + ox, y + oy) for x, y in pc], params.poly_radius)
             set_friction(c, params.friction)
             set_elasticity(c, params.elasticity)
             set_filter(c, filt)
-            sshapes.append(sh)
+            sshapes.append(c)
         fixed_shapes.append(sshapes)
     for ss in fixed_shapes:
-        space.add(*ss)
+        for c in ss:
+            add_shape(space_ptr, c)
     m0 = movers[0]
     return Scene(space=space, movers=movers, mover_ids=[b.id for b in movers],
-                 fixed_shapes=fixed_shapes, origins=origins, start=start, goal=goal, direction=d,
+                 moving_shapes=moving_shapes, fixed_shapes=fixed_shapes, origins=origins, start=start, goal=goal, direction=d,
                  length=length, mass=m0.mass, moment=m0.moment, scale=scale, center=(cx, cy),
                  pivot_world=goal, moving_extent=pl.moving_extent * scale,
                  start_offset=pl.start_offset)
@@ -197,8 +202,10 @@ def build_scene(assembly: Assembly, operation: Operation, params: SimParams,
 
 def remove_trial(scene: Scene, t: int) -> None:
     """Take trial ``t`` (its moving body and its fixed pieces) out of the space."""
-    mv = scene.movers[t]
-    scene.space.remove(mv, *mv.shapes, *scene.fixed_shapes[t])
+    scene.space.remove(scene.movers[t])
+    space_ptr = scene.space._space
+    for c in (*scene.moving_shapes[t], *scene.fixed_shapes[t]):
+        _cp.cpSpaceRemoveShape(space_ptr, c)
 
 
 @dataclass

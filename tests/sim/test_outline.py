@@ -74,5 +74,5 @@ def test_the_scene_holds_the_simplified_pieces():
     op = next(op for op in problem.candidates(frozenset({"gear16", "gear24"})))
     assert not problem.is_free(op)  # the meshing gears touch
     scene = build_scene(SHEET, op, params)
-    assert len(scene.movers[0].shapes) <= params.shape_pieces
+    assert len(scene.moving_shapes[0]) <= params.shape_pieces
     assert len(scene.fixed_shapes[0]) <= params.shape_pieces

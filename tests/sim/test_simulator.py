@@ -138,3 +138,78 @@ def test_trace_matches_simulate():
     for t in range(3):
         if tr.outcomes[t]:
             assert np.hypot(*tr.poses[t, -1, :2]) < 2.0
+
+
+def _pymunk_objects_poly(made: list):
+    """``new_poly`` as ``pymunk.Poly`` objects (what the simulator made before), kept in
+    ``made``: the reference the raw ``cpShape*`` must equal bit for bit."""
+    import pymunk
+    from pymunk._chipmunk import lib
+
+    def poly(body_ptr, vertices, radius):
+        sh = pymunk.Poly(None, vertices, radius=radius)
+        lib.cpShapeSetBody(sh._shape, body_ptr)
+        made.append(sh)
+        return sh._shape
+
+    return poly
+
+
+def test_raw_shapes_give_the_scene_pymunks_objects_give(monkeypatch):
+    """A scene's shapes are made with Chipmunk's C calls (``new_poly``), not pymunk's objects:
+    the same calls in the same order, so the same trials, poses and removals, bit for bit, on a
+    contact-rich operation whose decided trials leave the space (and from displaced starts)."""
+    import rap.sim.simulator as simulator
+    from rap.sim.layouts import TrialLayout
+
+    a, op = FUNNEL_PEG
+    p = SimParams(trials=24)
+    layouts = [TrialLayout({}, (0.02 * (k % 5 - 2), 0.01 * (k % 3 - 1), 0.01 * (k % 4 - 2)))
+               for k in range(p.trials)]
+
+    def run():
+        plain = simulate(a, op, p, np.random.default_rng(5))
+        scene = simulator.build_scene(a, op, p, layouts=layouts)
+        info = simulator.run_trials(scene, p, np.random.default_rng(6), record=p.trials)
+        return plain.outcomes, plain.body_steps, info.outcome.tolist(), info.recording[0]
+
+    raw = run()
+    made: list = []
+    monkeypatch.setattr(simulator, "new_poly", _pymunk_objects_poly(made))
+    ref = run()
+    assert made, "the reference did not make pymunk's objects"
+    assert raw[:3] == ref[:3] and 0 < sum(raw[0]) < p.trials  # some trials fail: contacts
+    np.testing.assert_array_equal(raw[3], ref[3])
+
+
+_DROP_SCRIPT = """
+import gc, sys
+import numpy as np
+sys.path.insert(0, {root!r})
+from tests.sim.fixtures import FUNNEL_PEG
+from rap.sim.params import SimParams
+from rap.sim.simulator import build_scene, remove_trial, run_trials
+a, op = FUNNEL_PEG
+p = SimParams(trials=8)
+for order in range(6):
+    scene = build_scene(a, op, p)
+    if order % 3 == 1:
+        run_trials(scene, p, np.random.default_rng(order))  # decided trials removed
+    if order % 3 == 2:
+        remove_trial(scene, 0)
+    space, movers, shapes = scene.space, scene.movers, scene.fixed_shapes + scene.moving_shapes
+    del scene
+    for name in (["space", "movers", "shapes"] if order < 3 else ["shapes", "movers", "space"]):
+        del globals()[name]
+        gc.collect()
+print("ok")
+"""
+
+
+def test_a_scene_dropped_in_any_order_frees_its_shapes_cleanly():
+    """The raw shapes' lifetimes: a scene whose space, moving bodies and shapes are collected in
+    either order (fresh, run, or with a trial removed) ends the process normally (a shape freed
+    while still in a space, or a space touching a freed shape, would crash it)."""
+    out = subprocess.run([sys.executable, "-c", _DROP_SCRIPT.format(root=str(ROOT))],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
