@@ -99,12 +99,11 @@ def guard_stats(scorer, problem: PlanningProblem) -> dict:
     .guard_report``: the share of sampled operations whose descriptors lie far from the training
     rows, the threshold, and what was done), else ``{}``: a familiar assembly's plan is unchanged.
     The plan document writes it as ``guard`` (``rap.plan.report.result``). Only a planner that
-    asked the model is reported (the verdict is cached per assembly: this costs nothing more)."""
-    cnn = getattr(scorer, "cnn", None)
-    report = getattr(cnn, "guard_report", None)
-    if report is None or not scorer.stats.cnn_batches:
+    asked the model is reported (the verdict is cached per assembly: this costs nothing more).
+    ``scorer``: a ``rap.plan.scoring.scorer.ScorerProtocol`` (its ``guard_report``)."""
+    if not scorer.stats.cnn_batches:
         return {}
-    got = report(problem)
+    got = scorer.guard_report(problem)
     return {"guard": got} if got else {}
 
 

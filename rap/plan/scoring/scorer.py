@@ -106,6 +106,14 @@ class BatchFirstBackend(Protocol):
     batch_first: bool
 
 
+@runtime_checkable
+class GuardedBackend(Protocol):
+    """A CNN backend with a guard for unfamiliar assemblies: what the plan says when the guard
+    acted on ``problem``'s assembly, or None (no guard, or a familiar assembly)."""
+
+    def guard_report(self, problem: PlanningProblem) -> dict | None: ...
+
+
 class BudgetSpent(Exception):
     """Raised by a scorer when a call would exceed its ``Budget``."""
 
@@ -151,6 +159,9 @@ class ScorerProtocol(Protocol):
     @property
     def batch_first(self) -> bool:
         """Whether scoring the whole graph in one batch first is cheaper."""
+
+    def guard_report(self, problem: PlanningProblem) -> dict | None:
+        """What the CNN backend's guard did on ``problem``'s assembly, or None (it did not act)."""
 
     def is_free(self, problem: PlanningProblem, op: Operation) -> bool: ...
 
@@ -260,6 +271,11 @@ class Scorer(ScorerProtocol):
         a time (``BatchFirstBackend``: ``rap.model.inference.cascade.CascadeScorer.batch_first``);
         False when it does not say (the CNN: its cost is per operation)."""
         return isinstance(self.cnn, BatchFirstBackend) and bool(self.cnn.batch_first)
+
+    def guard_report(self, problem: PlanningProblem) -> dict | None:
+        """What the CNN backend's guard did on ``problem``'s assembly (``GuardedBackend``:
+        ``rap.model.inference.cascade.CascadeScorer.guard_report``), else None."""
+        return self.cnn.guard_report(problem) if isinstance(self.cnn, GuardedBackend) else None
 
     def prob_high(self, problem: PlanningProblem, ops: Sequence[Operation]) -> np.ndarray:
         """The CNN's P(high) for each operation, one batch. Raises when no CNN is loaded."""

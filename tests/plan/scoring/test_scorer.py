@@ -69,6 +69,9 @@ class _FullCnn(TableCnn):
         self.joint += 1
         return self.prob_high(problem, ops), self.expected_score(problem, ops)
 
+    def guard_report(self, problem):
+        return {"unfamiliar": True, "assembly": problem.assembly.name}
+
 
 def test_the_scorer_protocol_is_declared_and_implemented():
     from rap.model.inference.cascade import CascadeScorer
@@ -97,3 +100,12 @@ def test_a_backends_capabilities_are_read_by_their_declared_protocols():
     assert (p == e).all() and sorted(set(p)) == [0.25, 1.0]
     no_cnn = Scorer(HashSim())
     assert no_cnn.bounds is None and no_cnn.batch_first is False
+    # the guard's report, read through GuardedBackend; a plan's stats carry it once the model
+    # was asked (rap.plan.scoring.familiarity.guard_stats)
+    from rap.plan.scoring.familiarity import guard_stats
+
+    assert full.guard_report(problem) == {"unfamiliar": True, "assembly": problem.assembly.name}
+    assert guard_stats(full, problem) == {"guard": full.guard_report(problem)}
+    assert plain.guard_report(problem) is None and no_cnn.guard_report(problem) is None
+    assert guard_stats(plain, problem) == {} and guard_stats(no_cnn, problem) == {}
+    assert guard_stats(Scorer(HashSim(), _FullCnn(lambda op: 0.25, None)), problem) == {}
