@@ -87,21 +87,19 @@ def with_raw_calls(moving, fixed, trials: int, params) -> tuple[float, int, floa
 
 
 def cases(limit: int):
-    from rap.geometry.ndbg import build_ndbg
-    from rap.geometry.partitions import online_partitions
-    from rap.io import load_assembly
+    """(name, assembly, operations) per assembly: benchmarks/sim.py's online partitions of each
+    assemblies/*.json (``limit`` each), then the curved drawing."""
+    from benchmarks.sim import assembly_cases
 
-    paths = sorted((ROOT / "assemblies").glob("*.json"))
-    out = []
-    for path in paths:
-        a = load_assembly(path)
-        ops = [p.operation() for p in online_partitions(build_ndbg(a), frozenset(a.ids))]
-        out.append((a.name, a, ops[:limit]))
+    out: dict[str, tuple] = {}
+    for label, a, op in assembly_cases(limit):
+        out.setdefault(label.split(":")[0], (a, []))[1].append(op)
+    grouped = [(name, a, ops) for name, (a, ops) in out.items()]
     try:
-        out.append(curved_drawing(limit))
+        grouped.append(curved_drawing(limit))
     except ImportError:
         print("(ezdxf is not installed: the curved drawing is left out)")
-    return out
+    return grouped
 
 
 def curved_drawing(limit: int):
@@ -111,7 +109,6 @@ def curved_drawing(limit: int):
     from rap.geometry.ndbg import build_ndbg
     from rap.geometry.partitions import online_partitions
 
-    sys.path.insert(0, str(ROOT / "tests" / "serve"))
     from tests.serve.test_page import seven_part_dxf
 
     with tempfile.TemporaryDirectory() as tmp:
