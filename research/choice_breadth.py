@@ -2,9 +2,11 @@
 (issue 46, "a planner that chooses by what happens"): how much better the best of many plans is,
 re-measured, than the search's best product, on tight fits.
 
-    python -m research.choice_breadth [--k 30] [--random 20] [--rollouts 200] [ASSEMBLY.json ...]
+    python -m research.choice_breadth [--k 30] [--random 20] [--rollouts 200] [--seed 0]
+                                      [ASSEMBLY.json ...]
 
-Per assembly (root seed 0, the shipped model and default scorer, simulations in this process):
+Per assembly (root seed ``--seed``, 0; ``rap-farm plan``'s default is 20190527; the shipped model
+and default scorer, simulations in this process):
 
 * the search's plan (its best product) and its ``--k`` alternatives, the K best trees by product
   of known scores (``SearchPlanner(alternatives=K).search``: what ``rap-farm plan --candidates K``
@@ -12,7 +14,7 @@ Per assembly (root seed 0, the shipped model and default scorer, simulations in 
 * ``--random`` random sequences (uniform splits: ``RandomPlanner``'s sampler, one sequence from
   each of root seeds 1..N), the diverse plans that products rank low;
 * every plan measured by ``--rollouts`` rollouts under the shipped cell's errors, errors carried,
-  on the same seeds (common random numbers, as the chooser does);
+  on the same seeds (the root seed's: common random numbers, as the chooser does);
 * the three best by that measurement and the search's plan re-measured on an independent root
   seed (1,000,003; 400 rollouts): the best of many estimates is biased upward, its re-measurement
   is not.
@@ -73,7 +75,7 @@ def _measure(asm, steps, base, seed: int, rollouts: int) -> float:
     return wins / runs
 
 
-def breadth(path: Path, k: int, n_random: int, rollouts: int, model, sim) -> dict:
+def breadth(path: Path, k: int, n_random: int, rollouts: int, model, sim, seed: int = 0) -> dict:
     from rap.commands._rollouts import cell_errors, mm_per_unit
     from rap.execution.rollout import RolloutPlan
     from rap.io import load_assembly
@@ -87,7 +89,7 @@ def breadth(path: Path, k: int, n_random: int, rollouts: int, model, sim) -> dic
     t0 = time.perf_counter()
     asm = load_assembly(path)
     cell = Cell()
-    problem = PlanningProblem(asm, SimParams(), 0)
+    problem = PlanningProblem(asm, SimParams(), seed)
     outcome = SearchPlanner(alternatives=k).search(problem, Scorer(sim, model, ScoreCache()))
     ops = tuple(s.to_operation() for s in outcome.plan.steps)
     plans = [("search", outcome.plan.robustness, ops)]
@@ -96,7 +98,7 @@ def breadth(path: Path, k: int, n_random: int, rollouts: int, model, sim) -> dic
     plans += [(f"random{i + 1}", None, seq)
               for i, seq in enumerate(_random_sequences(problem, n_random))]
     base = RolloutPlan(plans[0][2], problem.params, cell_errors(cell), mm_per_unit(cell, asm))
-    measured = [_measure(asm, ops, base, 0, rollouts) for _, _, ops in plans]
+    measured = [_measure(asm, ops, base, seed, rollouts) for _, _, ops in plans]
     order = sorted(range(len(plans)), key=lambda i: (-measured[i], i))
     again = {i: _measure(asm, plans[i][2], base, REMEASURE_SEED, REMEASURE)
              for i in sorted({0, *order[:3]})}
@@ -106,7 +108,8 @@ def breadth(path: Path, k: int, n_random: int, rollouts: int, model, sim) -> dic
         idx = [i for i in range(len(plans)) if plans[i][0].startswith(prefix)]
         return max(idx, key=lambda i: (measured[i], -i)) if idx else None
 
-    row = {"assembly": asm.name, "parts": len(asm.parts), "k": len(outcome.alternatives),
+    row = {"assembly": asm.name, "parts": len(asm.parts), "seed": seed,
+           "k": len(outcome.alternatives),
            "random": n_random, "rollouts": rollouts,
            "search": {"R": outcome.plan.robustness, "measured": measured[0], "again": again[0]},
            "best_alt": _entry(plans, measured, again, top("alt")),
@@ -130,6 +133,7 @@ def main() -> None:
     ap.add_argument("--k", type=int, default=30)
     ap.add_argument("--random", type=int, default=20)
     ap.add_argument("--rollouts", type=int, default=200)
+    ap.add_argument("--seed", type=int, default=0, help="root seed (the plan's, the rollouts')")
     ap.add_argument("--jsonl", type=Path)
     args = ap.parse_args()
     from rap.model.inference.operations import SHIPPED_MODEL, OperationPredictor
@@ -141,7 +145,7 @@ def main() -> None:
     try:
         for name in args.assemblies or TIGHT:
             path = Path(name) if Path(name).is_file() else ROOT / "assemblies" / name
-            row = breadth(path, args.k, args.random, args.rollouts, model, sim)
+            row = breadth(path, args.k, args.random, args.rollouts, model, sim, args.seed)
             rows.append(row)
             print(json.dumps(row), flush=True)
             if args.jsonl:
