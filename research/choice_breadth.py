@@ -44,22 +44,14 @@ REMEASURE_SEED, REMEASURE = 1_000_003, 400
 def _random_sequences(problem, n: int) -> list[tuple]:
     """``n`` sequences of uniform splits (``RandomPlanner``'s rule), one per root seed 1..n, as
     operation tuples in assembly order."""
-    from rap.plan.graph import assembly_order
-    from rap.plan.report.result import PlanStep
+    from rap.plan.planners.random_sequences import random_sequence
     from rap.seeds import derive_rng
 
     out = []
     for seed in range(1, n + 1):
         rng = derive_rng(seed, hashlib.sha256(
             f"choice-breadth|{problem.geometry_hash}".encode()).hexdigest())
-        choice, stack = {}, [problem.whole]
-        while stack:
-            s = stack.pop()
-            c = problem.candidates(s)
-            op = c[int(rng.integers(len(c)))]
-            choice[s] = PlanStep.of(op, "random")
-            stack += [x for x in (op.fixed, op.moving) if len(x) >= 2]
-        out.append(tuple(st.to_operation() for st in assembly_order(choice, problem.whole)))
+        out.append(tuple(st.to_operation() for st in random_sequence(problem, rng)))
     return out
 
 

@@ -3,7 +3,8 @@
 ``RandomPlanner`` draws ``samples`` sequences, each split chosen uniformly among the candidates,
 seeded from the root seed and the problem's content (``rap.seeds.derive_rng``);
 ``stats["mean_robustness"]`` is the baseline figure, and the returned sequence is the sample whose
-robustness is closest to that mean. Cost: ``samples`` x the steps' simulations. No ray, no torch.
+robustness is closest to that mean. ``random_sequence(problem, rng)`` is one such draw (also used
+by research/choice_breadth.py). Cost: ``samples`` x the steps' simulations. No ray, no torch.
 """
 
 from __future__ import annotations
@@ -20,7 +21,25 @@ from rap.plan.planners.options import PlannerOptions, option
 from rap.plan.report.result import PlanStep
 from rap.seeds import derive_rng
 
-__all__ = ["RandomPlanner", "RandomOptions"]
+__all__ = ["RandomPlanner", "RandomOptions", "random_sequence"]
+
+
+def random_sequence(problem, rng: np.random.Generator) -> list[PlanStep]:
+    """One sequence of uniform splits: from the whole assembly, each subassembly's operation
+    drawn uniformly among its candidates with ``rng`` (its fixed part, then its moving part, split
+    next), the steps (source ``random``) in assembly order. Raises ``Interlocked`` at a
+    subassembly with no candidate. Cost: the candidates of the subassemblies visited."""
+    choice: dict[frozenset, PlanStep] = {}
+    stack = [problem.whole]
+    while stack:
+        s = stack.pop()
+        c = problem.candidates(s)
+        if not c:
+            raise Interlocked(s)
+        op = c[int(rng.integers(len(c)))]
+        choice[s] = PlanStep.of(op, "random")
+        stack += [x for x in (op.fixed, op.moving) if len(x) >= 2]
+    return assembly_order(choice, problem.whole)
 
 
 @dataclass(frozen=True)
@@ -41,23 +60,9 @@ class RandomPlanner(Planner):
     options_class = RandomOptions
 
     def _search(self, problem, scorer, stats):
-        whole = problem.whole
         key = hashlib.sha256(f"random-sequences|{problem.geometry_hash}|{problem.space}".encode()).hexdigest()
         rng = derive_rng(problem.root_seed, key)
-        sequences: list[dict[frozenset, PlanStep]] = []
-        for _ in range(self.samples):
-            choice: dict[frozenset, PlanStep] = {}
-            stack = [whole]
-            while stack:
-                s = stack.pop()
-                c = problem.candidates(s)
-                if not c:
-                    raise Interlocked(s)
-                op = c[int(rng.integers(len(c)))]
-                choice[s] = PlanStep.of(op, "random")
-                stack += [x for x in (op.fixed, op.moving) if len(x) >= 2]
-            sequences.append(choice)
-        orders = [assembly_order(ch, whole) for ch in sequences]
+        orders = [random_sequence(problem, rng) for _ in range(self.samples)]
         flat = [st.to_operation() for o in orders for st in o]
         scores = np.asarray(scorer.scores(problem, flat), dtype=np.float64).reshape(len(orders), -1)
         r = scores.prod(axis=1)
