@@ -19,7 +19,8 @@ are needed.
 
 Special bounds: ``ScoreBounds.trivial()`` (no calibration: every operation bounded by 1; what
 ``load()`` gives when the shipped file is absent, with a note in ``provenance``) and
-``ScoreBounds.zero_width()`` (a perfect scorer: ``upper(p) = p``).
+``ScoreBounds.zero_width()`` (a perfect scorer: ``upper(p) = p``). ``LargerBounds(a, b)``: for a
+score that is the larger of two scorers' predictions, the larger of their bounds.
 
 ``to_json``/``from_json`` and ``save``/``load`` keep a fit in a file (``DEFAULT_PATH``,
 ``rap/data/score_bounds.json``: the shipped model's calibration), with ``provenance`` (the model's
@@ -45,7 +46,7 @@ import numpy as np
 
 from rap.stats import check_level
 
-__all__ = ["ScoreBounds", "fit", "load", "save", "min_count", "DEFAULT_PATH",
+__all__ = ["ScoreBounds", "LargerBounds", "fit", "load", "save", "min_count", "DEFAULT_PATH",
            "DEFAULT_BINS", "FORMAT"]
 
 DEFAULT_PATH = Path(__file__).resolve().parents[1] / "data" / "score_bounds.json"
@@ -161,6 +162,39 @@ class ScoreBounds:
                        bool(doc.get("perfect", False)), dict(doc.get("provenance") or {}))
         except (AttributeError, KeyError, TypeError) as exc:
             raise ValueError(f"not a {FORMAT} document ({type(exc).__name__}: {exc})") from None
+
+
+@dataclass(frozen=True)
+class LargerBounds:
+    """The bounds of a score that is the larger of two scorers' predictions (``p = max(p_a,
+    p_b)``, as the default scorer's guard gives on an unfamiliar assembly): ``upper(p, level) =
+    max(first.upper(p), second.upper(p))``. It is at least the bound of the scorer whose
+    prediction ``p`` is, at its own ``p``, so it holds whenever that scorer's bound holds (for
+    operations exchangeable with its calibration operations; which scorer predicts higher is
+    chosen by the data, a selection that favours over-predictions, so the bound errs high).
+    ``perfect`` and ``calibrated`` when both are; ``provenance`` names both fits."""
+
+    first: ScoreBounds
+    second: ScoreBounds
+
+    def upper(self, p, level: float) -> np.ndarray:
+        return np.maximum(self.first.upper(p, level), self.second.upper(p, level))
+
+    @property
+    def perfect(self) -> bool:
+        return self.first.perfect and self.second.perfect
+
+    @property
+    def calibrated(self) -> bool:
+        return self.first.calibrated and self.second.calibrated
+
+    @property
+    def provenance(self) -> dict:
+        def what(b: ScoreBounds) -> str:
+            return ", ".join(str(b.provenance[k]) for k in ("model", "set", "date")
+                             if k in b.provenance) or "uncalibrated"
+
+        return {"model": f"the larger of two fits ({what(self.first)}; {what(self.second)})"}
 
 
 def fit(predicted, simulated, *, bins: int = DEFAULT_BINS,

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from rap.model.calibration import FORMAT, ScoreBounds, fit, load, min_count, save
+from rap.model.calibration import FORMAT, LargerBounds, ScoreBounds, fit, load, min_count, save
 from rap.stats import bonferroni
 
 
@@ -35,6 +35,32 @@ def test_coverage_on_fresh_draws(level):
         assert np.mean(s[inside] <= up[inside]) >= level - 3 * tol
     # and the bound is not trivial: narrower than 1 on most operations
     assert np.mean(up < 1.0) > 0.5
+
+
+def test_larger_bounds_cover_the_larger_of_two_predictions():
+    """Two scorers of the same operations, one biased low and one noisy; a score that is the
+    larger of their predictions is covered by the larger of their fits' bounds at the level."""
+    rng = np.random.default_rng(11)
+
+    def two(n):
+        s = np.clip(np.round(rng.uniform(0, 1, n) * 100) / 100, 0, 1)
+        low = np.clip(s - 0.1 + rng.normal(0, 0.05, n), 0, 1)
+        noisy = np.clip(s + rng.normal(0, 0.15, n), 0, 1)
+        return s, low, noisy
+
+    s, a, b = two(4000)
+    both = LargerBounds(fit(a, s), fit(b, s))
+    s, a, b = two(40000)
+    level = 0.9
+    up = both.upper(np.maximum(a, b), level)
+    assert np.mean(s <= up) >= level - 0.01
+    q = np.linspace(0, 1, 21)
+    assert np.all(up >= 0) and np.all(both.upper(q, level) >= both.first.upper(q, level))
+    assert np.all(both.upper(q, level) >= both.second.upper(q, level))
+    assert both.calibrated and not both.perfect
+    named = LargerBounds(ScoreBounds(provenance={"model": "m1", "date": "d"}), ScoreBounds.trivial())
+    assert named.provenance["model"].startswith("the larger of two fits (m1, d; ")
+    assert not named.calibrated  # the trivial fit bounds by 1: so does the larger
 
 
 def test_conformal_rank_and_small_bins():

@@ -388,6 +388,22 @@ def test_an_example_is_one_click_and_planned_as_a_dropped_file(page, service, tm
     page.screenshot(path=str(tmp_path / "page-example.png"), full_page=True)
 
 
+def test_the_page_says_when_the_assembly_is_unfamiliar(page, service, tmp_path):
+    """An arch (a shape kind in no training family) planned by the default search: the page's
+    line says that the scorer's guard found it unfamiliar and what it did, as the JSON does."""
+    from rap.assembly import assembly_to_json
+    from rap.geometry.families import generate
+
+    path = tmp_path / "arch1.json"
+    path.write_text(json.dumps(assembly_to_json(generate("arch", 1))))
+    doc = _plan_in_page(page, service, path, "search", 0, tmp_path)
+    assert doc["guard"]["unfamiliar"] is True and doc["guard"]["search_gap"] == 0.05
+    status = page.inner_text("#plan-status")
+    share = round(100 * doc["guard"]["outside"])
+    assert (f"; unfamiliar assembly ({share}% of {doc['guard']['operations']} sampled operations "
+            f"far from the training data): {doc['guard']['action']}") in status
+
+
 # -- drawings (rap.cad, the DXF/SVG importer) ---------------------------------------------------------
 
 def seven_part_dxf(path: Path) -> Path:

@@ -1,7 +1,8 @@
 """The search's refine loop, shared by its exact and beam modes: simulate where it decides.
 
 ``RefineLoop`` is a part of ``rap.plan.search.planner.SearchPlanner`` (a mixin: it reads the
-planner's options ``simulations``, ``improve``, ``time_limit``, ``gap`` and ``bound_round``).
+planner's options ``simulations``, ``improve``, ``time_limit`` and ``bound_round``, and the run's
+``gap``: the option's, or the guard's on an unfamiliar assembly, ``SearchPlanner._gap``).
 ``_refine(run, choose, bound, incumbent_of)`` takes the search's run state
 (``rap.plan.search.run.SearchRun``: its scores, its ``budget``) and a mode's three callbacks: the
 choice by the current scores, the bound ``V`` on the optimum, and the best fully simulated
@@ -71,12 +72,12 @@ class RefineLoop:
         """Whether the choosing scores are the upper bounds themselves (the DP's value is V)."""
         return scores.upper == 1.0 and not scores.optimism and scores.trust is None
 
-    def _watching(self, scores: SearchScores) -> bool:
-        """Whether each round compares the incumbent with the bound: with ``gap``, or when the
-        bound comes free with the choice."""
+    def _watching(self, run: SearchRun) -> bool:
+        """Whether each round compares the incumbent with the bound: with the run's ``gap``, or
+        when the bound comes free with the choice."""
         if not self.simulations:  # nothing simulated, no incumbent: the bound cannot stop it
             return False
-        return self.gap is not None or self._free_bound(scores)
+        return run.gap is not None or self._free_bound(run.scores)
 
     def _settled(self, run: SearchRun, best: float, value: float, spent: int) -> bool:
         """Whether the incumbent ``best`` stops the search against the bound ``value``."""
@@ -84,24 +85,24 @@ class RefineLoop:
             return False
         if best >= value * SLACK:  # nothing left can beat it (the stronger claim first)
             run.stop("bound")
-        elif self.gap is not None and best >= (1.0 - self.gap) * value:
-            run.stop("gap", gap=self.gap)
+        elif run.gap is not None and best >= (1.0 - run.gap) * value:
+            run.stop("gap", gap=run.gap)
         else:
             return False
         run.stats.update(search_bound=value, stopped_after=spent, predicted_robustness=best)
         return True
 
     def _second_phase(self, run: SearchRun, choice: dict, spent: int):
-        """When the choice is settled short of ``gap`` with budget left: phase 2 (the planner's
+        """When the choice is settled short of the run's ``gap`` with budget left: phase 2 (the planner's
         module doc, 4) starts, choosing by the bounds themselves; returns what it must never fall
         below (the settled choice and its robustness by known scores), or None when it does not
         start."""
         scores = run.scores
-        if not (self.gap is not None and not self._spent(scores, spent, run.budget)):
+        if not (run.gap is not None and not self._spent(scores, spent, run.budget)):
             return None
         scores.by_bounds()
         run.phase1 = spent
-        run.stats.update(phase1_simulations=spent, gap=self.gap)
+        run.stats.update(phase1_simulations=spent, gap=run.gap)
         return choice, math.prod(scores.known(op) for op in choice.values())
 
     @staticmethod
@@ -131,7 +132,7 @@ class RefineLoop:
         floor = None
         while True:
             choice, best = choose()
-            if self._watching(scores):
+            if self._watching(run):
                 value = bound(best)
                 got, got_plan = incumbent_of()
                 if self._settled(run, got, value, spent):

@@ -490,8 +490,12 @@
       `${seq.interval[0].toFixed(3)}-${seq.interval[1].toFixed(3)}, ${seq.rollouts} rollouts, ` +
       `chosen by ${seq.chosen_by})` + (flagged.length ? `; tolerance below the cell's error ` +
       `budget: step ${flagged.join(", ")}` : "") : "";
+    // the default scorer's guard: the assembly looked unlike the training data, and what it did
+    const g = doc.guard;
+    const guard = g ? `; unfamiliar assembly (${Math.round(100 * g.outside)}% of ` +
+      `${g.operations} sampled operations far from the training data): ${g.action}` : "";
     $("plan-status").textContent = `${doc.method} plan of ${doc.assembly}: robustness R = ${r} ` +
-      `over ${doc.steps.length} steps${measured}${failures}${cell}, planned in ` +
+      `over ${doc.steps.length} steps${measured}${failures}${guard}${cell}, planned in ` +
       `${doc.seconds.toFixed(2)} s${evaluated}; ${timing}`;
     const tbody = $("steps").querySelector("tbody");
     tbody.textContent = "";

@@ -1,7 +1,8 @@
 """The default scorer's guard (rap.model.inference.cascade, descriptor_model.Familiarity): a
 familiar assembly is scored and bounded exactly as without it; an unfamiliar one (a held-out
-shape kind) is flagged, scored by the CNN alone and bounded by the CNN's bounds; the plan says so;
-its plan reaches 0.95 of the optimum."""
+shape kind) is flagged, scored by the larger of the trees' and the CNN's numbers and bounded by the
+larger of their bounds; the search keeps a gap there; the plan says so; its plan reaches 0.95 of the
+optimum."""
 
 from __future__ import annotations
 
@@ -76,7 +77,11 @@ def test_familiar_assembly_is_scored_and_bounded_as_without_the_guard(cascade):
     np.testing.assert_array_equal(cascade.bounds.upper(p, 0.99), bare.bounds.upper(p, 0.99))
 
 
-def test_unfamiliar_assembly_is_flagged_scored_by_the_cnn_and_cnn_bounded(cascade):
+def test_unfamiliar_assembly_is_flagged_and_takes_the_larger_of_the_trees_and_the_cnn(cascade):
+    """On an unfamiliar assembly every operation is scored by the CNN too and takes the larger of
+    the two models' numbers; the bounds are the larger of the two fits' (LargerBounds)."""
+    from rap.model.calibration import LargerBounds
+
     problem = _problem(UNFAMILIAR)
     ops = list(problem.candidates(problem.whole))
     v = cascade.verdict(problem)
@@ -84,13 +89,65 @@ def test_unfamiliar_assembly_is_flagged_scored_by_the_cnn_and_cnn_bounded(cascad
     before = cascade.guarded
     p, e = cascade.prob_high_and_expected(problem, ops)
     assert cascade.guarded - before == len(ops)
-    want = cascade.cnn.prob_high_and_expected(problem, ops)
-    np.testing.assert_allclose(e, want[1], atol=1e-6)
+    cnn = cascade.cnn.prob_high_and_expected(problem, ops)
+    trees = cascade.model.prob_high_and_expected(cascade.descriptors(problem, ops))
+    np.testing.assert_allclose(e, np.maximum(cnn[1], trees[1]), atol=1e-6)
+    np.testing.assert_allclose(p, np.maximum(cnn[0], trees[0]), atol=1e-6)
+    assert np.any(cnn[1] > trees[1] + 1e-3) and np.any(trees[1] > cnn[1] + 1e-3)  # both count
     bounds = cascade.bounds
-    assert isinstance(bounds, GuardedBounds)
+    assert isinstance(bounds, GuardedBounds) and isinstance(cascade.active_bounds(), LargerBounds)
     q = np.linspace(0, 1, 11)
-    np.testing.assert_array_equal(bounds.upper(q, 0.99), cnn_bounds().upper(q, 0.99))
-    assert "CNN" in cascade.guard_report(problem)["action"]
+    want = np.maximum(cnn_bounds().upper(q, 0.99), cascade._bounds.upper(q, 0.99))
+    np.testing.assert_array_equal(bounds.upper(q, 0.99), want)
+    assert bounds.calibrated and not bounds.perfect and "larger of two" in bounds.provenance["model"]
+    assert "larger of the trees' and the CNN's" in cascade.guard_report(problem)["action"]
+
+
+def test_batch_first_follows_the_assembly_judged_last(cascade):
+    """The trees' whole-graph batch pays only where the trees answer: not on an unfamiliar
+    assembly, whose every operation goes to the CNN (per operation: ask lazily)."""
+    cascade.verdict(_problem(UNFAMILIAR))
+    assert cascade.batch_first is False
+    cascade.verdict(_problem(FAMILIAR))
+    assert cascade.batch_first is True
+
+
+def test_the_search_keeps_a_gap_on_an_unfamiliar_assembly_and_the_plan_says_so(cascade):
+    """Issue 45, 3: with the option ``gap`` off, a flagged assembly's search simulates until its
+    plan is within ``GUARD_GAP`` of the bound on the optimum (budget permitting); ``guard_gap=0``
+    plans it as before, and the plan then says nothing of a gap."""
+    from rap.plan import plan
+    from rap.plan.scoring.cache import ScoreCache
+    from rap.plan.search.options import GUARD_GAP
+
+    asm = generate(*UNFAMILIAR)
+    cache = ScoreCache()
+    kept = plan(asm, model=cascade, cache=cache)
+    assert kept.stats["guard_gap"] == GUARD_GAP == 0.05
+    guard = kept.to_json()["guard"]
+    assert guard["search_gap"] == GUARD_GAP and "within 5% of the bound" in guard["action"]
+    # it went on past the settled choice: within the gap, or stopped by its budget
+    assert kept.stats["stopped"] in ("gap", "bound", "budget", "time")
+    if kept.stats["stopped"] in ("gap", "bound"):
+        assert kept.bound["gap"] <= GUARD_GAP + 1e-9
+    # the plan command's text says what the guard did, and whose gap stopped the search
+    from rich.console import Console
+
+    from rap.commands._plan_output import bound_lines, print_result
+
+    if kept.stats["stopped"] == "gap":
+        assert bound_lines(kept)[1].startswith("stopped at the unfamiliar assembly's gap 0.05")
+    console = Console(record=True, width=400)
+    print_result(console, kept)
+    text = console.export_text()
+    assert "unfamiliar assembly: " in text and "within 5% of the bound" in text
+    bare = plan(asm, model=cascade, cache=cache, guard_gap=0.0)
+    assert "guard_gap" not in bare.stats and "search_gap" not in bare.to_json()["guard"]
+    assert bare.stats["search_simulations"] <= kept.stats["search_simulations"]
+    assert kept.bound["gap"] <= bare.bound["gap"]
+    # an explicit gap is the user's: the guard does not change it
+    asked = plan(asm, model=cascade, cache=cache, gap=0.2)
+    assert "guard_gap" not in asked.stats and asked.stats.get("gap") in (None, 0.2)
 
 
 @pytest.mark.slow
@@ -103,6 +160,7 @@ def test_unfamiliar_plan_says_so_and_reaches_095_of_the_optimum():
     default = plan(asm, model=OperationPredictor.load(SHIPPED, engine="auto"), cache=cache)
     doc = default.to_json()
     assert doc["guard"]["unfamiliar"] is True and "action" in doc["guard"]
+    assert doc["guard"]["search_gap"] == 0.05
     optimum = plan(asm, method="optimal", cache=cache)
     assert default.robustness >= 0.95 * optimum.robustness
 
@@ -118,6 +176,6 @@ def test_familiar_plan_has_no_guard_entry_and_is_unchanged():
     without.guard = None
     a = plan(asm, model=with_guard, cache=ScoreCache())
     b = plan(asm, model=without, cache=ScoreCache())
-    assert "guard" not in a.to_json()
+    assert "guard" not in a.to_json() and "guard_gap" not in a.stats
     assert [s.to_json() for s in a.steps] == [s.to_json() for s in b.steps]
     assert a.robustness == b.robustness
