@@ -3,6 +3,7 @@
     python -m research.leave_one_family_out scorer [--rows 2000] [--rounds 400] [--families a,b]
     python -m research.leave_one_family_out plans [--families arch,dovetail] [--seeds 0] [--max-parts 8]
     python -m research.leave_one_family_out guard-stats [--out rap/data/default_model.scorer.guard.json]
+    python -m research.leave_one_family_out cnn --checkpoints DIR [--rows 2000]
 
 ``scorer``: for every family F of ``datasets/corpus`` (the reference six excepted), the cascade's
 trees are retrained on every other family's rows (``research.descriptor_scorer``'s recipe:
@@ -12,11 +13,18 @@ CNN on the same rows (rendered images from the corpus: the CNN *has* seen F, so 
 optimistic) and the shipped trees (which have seen F too). Per family: accuracy of the P(high)
 decision at 0.95, ECE, and the mean absolute error of the expected score.
 
+``cnn``: per family F, a CNN trained without it (``DIR/F.pt``: ``rap-farm train datasets/corpus
+--holdout-family F``, at whatever budget the folder's models share) on the rows ``scorer`` measures,
+beside ``DIR/all.pt`` (the same recipe and budget on every family, if present): the drop that
+leaving F out costs the CNN, to set beside the trees'.
+
 ``plans``: small assemblies (at most ``--max-parts`` parts) of the held-out shape kinds
 (``rap.geometry.families.unseen``) or of named training families: the default plan (with its
 guard), the same cascade without the guard (the trees alone, as before issue 45), the CNN-alone
 search and the optimum (``--method optimal``), R and seconds each, one shared root seed; each
-one's share of the optimum and whether the guard flagged the assembly. Simulations dominate: minutes an assembly on 2 cores.
+one's share of the optimum and whether the guard flagged the assembly. On a flagged assembly also
+the search with a gap kept there (``guard_gap``: ``research.variants.guard_gap``, measured not to
+pay; its own empty score cache, so its time compares with the default's). Simulations dominate: minutes an assembly on 2 cores.
 
 ``guard-stats``: fits ``rap.model.inference.descriptor_model.Familiarity`` (a seeded reference of
 60,000 corpus rows; the 0.9 quantile of the other rows' mean distance to their 5 nearest) and
@@ -61,17 +69,10 @@ def scorer_table(rows: int, rounds: int, families: list[str] | None = None,
     store, x = ds.corpus_rows()
     shipped = DescriptorModel.load(ROOT / "rap" / "data" / "default_model.scorer.npz")
     cnn = OperationPredictor.load(CHECKPOINT, engine="cnn")
-    cols = getattr(cnn.predictor, "descriptors", ()) or ()
-    from rap.model.data.descriptors import columns
-
-    cnn_cols = columns(tuple(cols)) if cols else None
-    rng = np.random.default_rng(seed)
     out = []
-    for fam in sorted(set(store.family.tolist()) - {"reference"}):
+    for fam, pick in _picks(store, rows, seed).items():
         t = time.perf_counter()
-        held = np.flatnonzero(store.family == fam)
         if families and fam not in families:  # drawn anyway: the same rows as a full run's
-            rng.choice(held, min(rows, len(held)), replace=False)
             continue
         tr = np.flatnonzero(store.family != fam)
         import lightgbm
@@ -80,16 +81,74 @@ def scorer_table(rows: int, rounds: int, families: list[str] | None = None,
                                 weight=store.trials[tr] / 100.0)
         booster = lightgbm.train({**ds.GBT_PARAMS, "seed": seed, "verbose": -1}, data, rounds)
         lofo = DescriptorModel(None, None, [], {**shipped.meta}, booster=booster.model_to_string())
-        pick = np.sort(rng.choice(held, min(rows, len(held)), replace=False))
         labels = store.scores[pick] >= 0.95
         row = {"family": fam, "rows": int(len(pick))}
         for name, model in (("trees_lofo", lofo), ("trees_shipped", shipped)):
             p, e = model.prob_high_and_expected(x[pick])
             row[name] = _metrics(labels, p, e, store.scores[pick])
-        d = None if cnn_cols is None else np.ascontiguousarray(x[pick][:, cnn_cols])
-        p, e = cnn.forward("prob_high_and_expected", store.images[pick], d)  # the 'pair' view
-        row["cnn_shipped"] = _metrics(labels, p, e, store.scores[pick])
+        row["cnn_shipped"] = _cnn_metrics(cnn, store, x, pick)
         row["seconds"] = round(time.perf_counter() - t, 1)
+        print(json.dumps(row), flush=True)
+        out.append(row)
+    return out
+
+
+def _outcome(result, started: float) -> dict:
+    """A plan's row entry: R, seconds since ``started``, and the search's stop, simulations and
+    bound gap where it reports them."""
+    row = {"R": round(float(result.robustness), 4),
+           "seconds": round(time.perf_counter() - started, 1)}
+    row.update({k: result.stats[k] for k in ("stopped", "search_simulations") if k in result.stats})
+    if result.bound:
+        row["bound_gap"] = round(float(result.bound["gap"]), 3)
+    return row
+
+
+def _cnn_metrics(cnn, store, x, pick) -> dict:
+    """A loaded CNN's metrics on the corpus rows ``pick`` (the 'pair' view, with the descriptors
+    its network takes, if any)."""
+    from rap.model.data.descriptors import columns
+
+    cols = getattr(cnn.predictor, "descriptors", ()) or ()
+    d = np.ascontiguousarray(x[pick][:, columns(tuple(cols))]) if cols else None
+    p, e = cnn.forward("prob_high_and_expected", store.images[pick], d)
+    return _metrics(store.scores[pick] >= 0.95, p, e, store.scores[pick])
+
+
+def _picks(store, rows: int, seed: int) -> dict:
+    """Per family (the reference six excepted, sorted), the seeded sample of ``rows`` of its rows
+    that every table here is measured on (sorted row indices)."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for fam in sorted(set(store.family.tolist()) - {"reference"}):
+        held = np.flatnonzero(store.family == fam)
+        out[fam] = np.sort(rng.choice(held, min(rows, len(held)), replace=False))
+    return out
+
+
+def cnn_table(checkpoints: Path, rows: int, seed: int = 0) -> list[dict]:
+    """Per family F with ``checkpoints/F.pt`` (a CNN trained without F: ``rap-farm train
+    datasets/corpus --holdout-family F``), its metrics on the rows ``scorer`` measures, beside
+    ``checkpoints/all.pt`` (the same recipe and budget on every family) where it exists."""
+    import research.descriptor_scorer as ds
+    from rap.model.inference.operations import OperationPredictor
+
+    store, x = ds.corpus_rows()
+    models = {}
+
+    def scored(path: Path, pick) -> dict:
+        if path not in models:
+            models[path] = OperationPredictor.load(path, engine="cnn")
+        return _cnn_metrics(models[path], store, x, pick)
+
+    out = []
+    for fam, pick in _picks(store, rows, seed).items():
+        if not (checkpoints / f"{fam}.pt").is_file():
+            continue
+        row = {"family": fam, "rows": int(len(pick)),
+               "cnn_lofo": scored(checkpoints / f"{fam}.pt", pick)}
+        if (checkpoints / "all.pt").is_file():
+            row["cnn_all"] = scored(checkpoints / "all.pt", pick)
         print(json.dumps(row), flush=True)
         out.append(row)
     return out
@@ -120,13 +179,19 @@ def plan_table(families: list[str], seeds: list[int], max_parts: int) -> list[di
                              ("cnn", {"model": cnn}), ("optimal", {"method": "optimal"})):
                 t = time.perf_counter()
                 r = plan(asm, cache=cache, **kw)
-                row[name] = {"R": round(float(r.robustness), 4),
-                             "seconds": round(time.perf_counter() - t, 1)}
+                row[name] = _outcome(r, t)
                 if name == "default":
                     row["guard"] = (r.stats.get("guard") or {}).get("outside")
                     row["flagged"] = r.stats.get("guard") is not None
             opt = row["optimal"]["R"]
-            for name in ("default", "trees", "cnn"):
+            if row["flagged"]:  # the variant that keeps a gap on a flagged assembly
+                from research.variants.guard_gap import GuardGapSearchPlanner
+
+                t = time.perf_counter()
+                r = plan(asm, GuardGapSearchPlanner(), cache=ScoreCache(),
+                         model=OperationPredictor.load(CHECKPOINT, engine="auto"))
+                row["guard_gap"] = _outcome(r, t)
+            for name in ("default", "trees", "cnn", "guard_gap")[:3 + row["flagged"]]:
                 row[f"{name}_share"] = round(row[name]["R"] / opt, 3) if opt > 0 else None
             print(json.dumps(row), flush=True)
             out.append(row)
@@ -176,6 +241,9 @@ def main(argv=None) -> None:
     a1.add_argument("--rows", type=int, default=2000)
     a1.add_argument("--rounds", type=int, default=400)
     a1.add_argument("--families", default="", help="comma-separated (default: every family)")
+    a4 = sub.add_parser("cnn")
+    a4.add_argument("--checkpoints", required=True, help="a folder of FAMILY.pt (and all.pt)")
+    a4.add_argument("--rows", type=int, default=2000)
     a2 = sub.add_parser("plans")
     a2.add_argument("--families", default="arch,dovetail,puzzle,bond")
     a2.add_argument("--seeds", default="0")
@@ -188,6 +256,8 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
     if a.what == "scorer":
         scorer_table(a.rows, a.rounds, [f for f in a.families.split(",") if f])
+    elif a.what == "cnn":
+        cnn_table(Path(a.checkpoints), a.rows)
     elif a.what == "plans":
         plan_table(a.families.split(","), [int(s) for s in a.seeds.split(",")], a.max_parts)
     else:

@@ -77,16 +77,14 @@ def bound_lines(result) -> list[str]:
            f"{100 * (1 - gap):.1f}% of the optimum's robustness (gap {100 * gap:.1f}%)"
            + (f" ({b['note']})" if b.get("note") else "")]
     n = st.get("stopped_after", 0)
-    # the gap asked for, or the one the search kept on an unfamiliar assembly (stats guard_gap)
-    which = "the unfamiliar assembly's gap" if st.get("guard_gap") else "--gap"
     if st.get("stopped") == "gap":
-        out.append(f"stopped at {which} {st['gap']:g} after {n} simulations")
+        out.append(f"stopped at --gap {st['gap']:g} after {n} simulations")
     elif st.get("stopped") == "bound":
         out.append(f"stopped after {n} simulations: no sequence left can beat this plan at the "
                    f"bounds' confidence")
     elif st.get("stopped") == "budget" and "phase2_simulations" in st:
         out.append(f"the budget ran out after {n} simulations, {st['phase2_simulations']} of "
-                   f"them after the choice settled, before {which} {st['gap']:g} was reached")
+                   f"them after the choice settled, before --gap {st['gap']:g} was reached")
     elif st.get("stopped") == "time":
         out.append(f"--time-limit reached: the plan is the best by what was known after "
                    f"{st.get('search_simulations', 0)} simulations")

@@ -82,7 +82,7 @@ class Planner(abc.ABC):
         stats.update(constraint_stats(problem))  # the cell's constraints, the scores' scope
         try:  # a single part needs no step
             steps = search(problem, scorer, stats) if len(problem.whole) >= 2 else []
-            stats.update(guard_stats(scorer, problem, stats))  # the scorer's guard, if it acted
+            stats.update(guard_stats(scorer, problem))  # the default scorer's guard, if it acted
         except Interlocked as exc:
             culprit, message = blocked_by(problem, exc.subset)  # an interlock or a constraint
             return PlanResult(PlanStatus.INFEASIBLE, self.name, problem.assembly.name,

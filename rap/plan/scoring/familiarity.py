@@ -93,29 +93,18 @@ def model_familiarity(meta: dict, geometry_hash: str, images: np.ndarray,
     return notes
 
 
-def guard_stats(scorer, problem: PlanningProblem, stats: dict | None = None) -> dict:
+def guard_stats(scorer, problem: PlanningProblem) -> dict:
     """``{"guard": ...}`` for a plan's stats when the scorer's model backend has a guard that
     found this assembly unfamiliar and acted (``rap.model.inference.cascade.CascadeScorer
     .guard_report``: the share of sampled operations whose descriptors lie far from the training
     rows, the threshold, and what was done), else ``{}``: a familiar assembly's plan is unchanged.
-    When the search kept a gap for it (``stats["guard_gap"]``, ``rap.plan.search.planner``), the
-    entry says so too (``search_gap``, and a clause of ``action``). The plan document writes it
-    as ``guard`` (``rap.plan.report.result``). Only a planner that asked the model is reported
-    (the verdict is cached per assembly: this costs nothing more). ``scorer``: a
-    ``rap.plan.scoring.scorer.ScorerProtocol`` (its ``guard_report``); ``stats``: the plan's so
-    far (None: none)."""
+    The plan document writes it as ``guard`` (``rap.plan.report.result``). Only a planner that
+    asked the model is reported (the verdict is cached per assembly: this costs nothing more).
+    ``scorer``: a ``rap.plan.scoring.scorer.ScorerProtocol`` (its ``guard_report``)."""
     if not scorer.stats.cnn_batches:
         return {}
     got = scorer.guard_report(problem)
-    if not got:
-        return {}
-    gap = (stats or {}).get("guard_gap")
-    if gap:
-        got = {**got, "search_gap": gap,
-               "action": f"{got['action']}; the search simulates until its plan is within "
-                         f"{gap:.0%} of the bound on the optimum, its budget and time limit "
-                         f"permitting"}
-    return {"guard": got}
+    return {"guard": got} if got else {}
 
 
 def _trained_on(trained: list[dict]) -> str:

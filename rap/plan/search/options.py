@@ -11,7 +11,7 @@ from rap.plan.planners.options import PlannerOptions, option
 
 __all__ = ["SearchOptions", "GREEDY_FROM", "IMPROVE", "GREEDY_SHARE", "WINDOW", "BEAM_FROM",
            "SEARCH_SIMULATIONS", "SEARCH_UPPER", "SEARCH_GAP", "DEFAULT_BEAM",
-           "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE", "BOUND_ROUND", "GUARD_GAP"]
+           "DEFAULT_MAX_OPERATIONS", "DEFAULT_CONFIDENCE", "BOUND_ROUND"]
 
 DEFAULT_BEAM = 8
 DEFAULT_MAX_OPERATIONS = 20_000
@@ -32,12 +32,6 @@ BOUND_ROUND = 2
 SEARCH_SIMULATIONS = 200
 SEARCH_UPPER = 0.35
 SEARCH_GAP = 0.0
-#: the gap the search keeps on an assembly the default scorer's guard found unfamiliar, where the
-#: option ``gap`` is off (issue 45, 3: where the scores are least trusted, simulate until the plan
-#: is within 5% of the bound on the optimum, the budget and time limit permitting); familiar
-#: assemblies are planned as without it (docs/PLANNING.md, "Unfamiliar assemblies"; measured in research/README.md, "Leave one
-#: family out, and the guard")
-GUARD_GAP = 0.05
 # From GREEDY_FROM parts on, the search starts from simulator-only greedy's plan and spends at most
 # IMPROVE times greedy's simulations improving it (docs/PLANNING.md, "Planning at scale"): beyond a
 # dozen parts the plan's many steps keep the exact refine from settling within its 200 simulations
@@ -127,10 +121,6 @@ class SearchOptions(PlannerOptions):
              "K at a time, exactly, with what is left of the simulations (0: off)")
     beam_width: int = option(int, DEFAULT_BEAM, low=1, code="w", code_name="W",
                              help="Method {method}: beam width beyond the exact search's budget")
-    guard_gap: float = option(
-        float, GUARD_GAP, low=0.0, high=1.0, noun="a fraction", cli=False, service=False,
-        help="Method {method} with {simulations}, when {gap} is off: the gap kept on an assembly "
-             "the scorer's guard found unfamiliar (0: none, as on a familiar one)")
     bound_round: int = option(
         int, BOUND_ROUND, low=1, cli=False, service=False,
         help="Method {method}: operations simulated a round while choosing by bounds")

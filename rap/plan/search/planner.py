@@ -36,9 +36,9 @@ which is spent only where it decides. Its options and their measured defaults ar
    (``bound``) or, with ``gap``, ``I >= (1 - gap) V``. Phase 2: when the choice is settled short
    of the gap, it goes on by the bounds themselves until within it, and returns the incumbent,
    never a worse plan than the settled choice (``stats``: ``stopped``, ``phase1_simulations``,
-   ``phase2_simulations``, ``search_bound``). With ``gap`` off, an assembly the scorer's guard
-   found unfamiliar gets ``guard_gap`` (``_gap``; stats ``guard_gap``, and the plan's ``guard``
-   says so): where the scores are least trusted, the search keeps simulating within its budget. In beam mode ``V`` and ``I`` range over the final
+   ``phase2_simulations``, ``search_bound``). The run's gap is ``_gap(run)``: the option; a
+   variant may choose it per assembly (``research/variants/guard_gap.py``: a gap kept on an
+   assembly the scorer's guard found unfamiliar, measured not to pay). In beam mode ``V`` and ``I`` range over the final
    beam's sequences only (the bound's ``scope``: ``beam``).
 5. **A bound with every plan**: after the plan's steps are simulated for its evaluation, ``V`` is
    computed again with those scores (never below R) and reported as ``PlanResult.bound``
@@ -183,6 +183,9 @@ class SearchPlanner(ExactMode, BeamMode, RefineLoop, Planner):
                                            bonferroni(self.confidence, len(whole) - 1),
                                            self.optimism if raise_ else 0.0,
                                            self.upper if raise_ else 0.0, self.trust)
+        # the guard's verdict first (judged once per assembly, the first thing the scorer does with
+        # it anyway): the scorer's ``batch_first`` follows the assembly judged last
+        scorer.guard_report(problem)
         run.gap = self._gap(run)
         if len(whole) < self.beam_from:  # else the walk, 1-4 s, would only find it too large
             try:
@@ -211,17 +214,8 @@ class SearchPlanner(ExactMode, BeamMode, RefineLoop, Planner):
         return assembly_order(steps, whole)
 
     def _gap(self, run: SearchRun) -> float | None:
-        """The run's gap (module doc, 4): the option ``gap``; when it is off and the scorer's guard
-        found the assembly unfamiliar (``ScorerProtocol.guard_report``: judged once per assembly,
-        the first thing the scorer does with it anyway), ``guard_gap`` (None when 0), recorded as
-        ``stats["guard_gap"]``; else None. Without simulations there is nothing to keep going.
-        The verdict is asked for first whatever the options: the scorer's ``batch_first`` follows
-        the assembly judged last (the default scorer's: not on an unfamiliar one)."""
-        unfamiliar = run.scorer.guard_report(run.problem) is not None
-        if self.gap is not None or not (unfamiliar and self.simulations and self.guard_gap):
-            return self.gap
-        run.stats["guard_gap"] = self.guard_gap
-        return self.guard_gap
+        """The run's gap (module doc, 4): the option ``gap`` (None: off)."""
+        return self.gap
 
     def _bound(self, run: SearchRun, result: PlanResult) -> dict:
         """The plan's ``bound`` block with its own simulated scores counted (module doc, 5)."""

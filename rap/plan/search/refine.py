@@ -2,7 +2,7 @@
 
 ``RefineLoop`` is a part of ``rap.plan.search.planner.SearchPlanner`` (a mixin: it reads the
 planner's options ``simulations``, ``improve``, ``time_limit`` and ``bound_round``, and the run's
-``gap``: the option's, or the guard's on an unfamiliar assembly, ``SearchPlanner._gap``).
+``gap``, ``SearchPlanner._gap``).
 ``_refine(run, choose, bound, incumbent_of)`` takes the search's run state
 (``rap.plan.search.run.SearchRun``: its scores, its ``budget``) and a mode's three callbacks: the
 choice by the current scores, the bound ``V`` on the optimum, and the best fully simulated

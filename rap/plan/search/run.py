@@ -6,8 +6,8 @@ the refine loop (``rap.plan.search.refine``), the plan's bound and the alternati
 (``rap.plan.search.planner``, ``rap.plan.search.alternatives``). Nothing of a run is kept on the
 planner, which one service may share between concurrent requests, nor in a thread-local.
 
-Decisions read the typed fields: ``gap`` (the refine loop's: the planner's option, or the guard's
-on an unfamiliar assembly), ``budget`` (the refine loop's simulations), ``refined`` (what it
+Decisions read the typed fields: ``gap`` (the refine loop's: ``SearchPlanner._gap``, the
+planner's option), ``budget (the refine loop's simulations), ``refined`` (what it
 spent), ``stopped`` (why it stopped), ``phase1`` (its simulations when phase 2 began) and
 ``start`` (greedy's first plan). ``stats`` is output only: the search writes its counters there
 (the keys the planner's module doc names) and never reads one back to decide.
