@@ -1,6 +1,6 @@
 """Leave-one-family-out evaluation of the default scorer (issue 45), and the guard's statistics.
 
-    python -m research.leave_one_family_out scorer [--rows 2000] [--rounds 400] [--families a,b]
+    python -m research.leave_one_family_out scorer [--rows 2000] [--rounds 400] [--families a,b] [--train-rows N]
     python -m research.leave_one_family_out plans [--families arch,dovetail] [--seeds 0] [--max-parts 8]
     python -m research.leave_one_family_out guard-stats [--out rap/data/default_model.scorer.guard.json]
     python -m research.leave_one_family_out cnn --checkpoints DIR [--rows 2000]
@@ -61,7 +61,12 @@ def _metrics(labels, prob, expected, scores) -> dict:
 
 
 def scorer_table(rows: int, rounds: int, families: list[str] | None = None,
-                 seed: int = 0) -> list[dict]:
+                 seed: int = 0, train_rows: int = 0) -> list[dict]:
+    """The ``scorer`` table (module doc). ``train_rows`` > 0: the trees are fitted on a seeded
+    sample of that many rows (left out: of the other families; ``trees_all``: of every family,
+    the same budget), to set beside CNNs trained at a small budget (``cnn``)."""
+    import lightgbm
+
     import research.descriptor_scorer as ds
     from rap.model.inference.descriptor_model import DescriptorModel
     from rap.model.inference.operations import OperationPredictor
@@ -69,21 +74,30 @@ def scorer_table(rows: int, rounds: int, families: list[str] | None = None,
     store, x = ds.corpus_rows()
     shipped = DescriptorModel.load(ROOT / "rap" / "data" / "default_model.scorer.npz")
     cnn = OperationPredictor.load(CHECKPOINT, engine="cnn")
+    sampler = np.random.default_rng(seed + 1)
+
+    def fit(tr) -> DescriptorModel:
+        if train_rows:
+            tr = np.sort(sampler.choice(tr, min(train_rows, len(tr)), replace=False))
+        data = lightgbm.Dataset(x[tr].astype(np.float64),
+                                label=store.successes[tr] / store.trials[tr],
+                                weight=store.trials[tr] / 100.0)
+        booster = lightgbm.train({**ds.GBT_PARAMS, "seed": seed, "verbose": -1}, data, rounds)
+        return DescriptorModel(None, None, [], {**shipped.meta}, booster=booster.model_to_string())
+
+    compared = [("trees_shipped", shipped)]
+    if train_rows:
+        compared.append(("trees_all", fit(np.flatnonzero(store.family == store.family))))
     out = []
     for fam, pick in _picks(store, rows, seed).items():
         t = time.perf_counter()
         if families and fam not in families:  # drawn anyway: the same rows as a full run's
             continue
-        tr = np.flatnonzero(store.family != fam)
-        import lightgbm
-
-        data = lightgbm.Dataset(x[tr].astype(np.float64), label=store.successes[tr] / store.trials[tr],
-                                weight=store.trials[tr] / 100.0)
-        booster = lightgbm.train({**ds.GBT_PARAMS, "seed": seed, "verbose": -1}, data, rounds)
-        lofo = DescriptorModel(None, None, [], {**shipped.meta}, booster=booster.model_to_string())
+        lofo = fit(np.flatnonzero(store.family != fam))
         labels = store.scores[pick] >= 0.95
-        row = {"family": fam, "rows": int(len(pick))}
-        for name, model in (("trees_lofo", lofo), ("trees_shipped", shipped)):
+        row = {"family": fam, "rows": int(len(pick)), **({"train_rows": train_rows} if train_rows
+                                                          else {})}
+        for name, model in (("trees_lofo", lofo), *compared):
             p, e = model.prob_high_and_expected(x[pick])
             row[name] = _metrics(labels, p, e, store.scores[pick])
         row["cnn_shipped"] = _cnn_metrics(cnn, store, x, pick)
@@ -241,6 +255,8 @@ def main(argv=None) -> None:
     a1.add_argument("--rows", type=int, default=2000)
     a1.add_argument("--rounds", type=int, default=400)
     a1.add_argument("--families", default="", help="comma-separated (default: every family)")
+    a1.add_argument("--train-rows", type=int, default=0,
+                    help="fit the trees on a seeded sample of this many rows (0: all)")
     a4 = sub.add_parser("cnn")
     a4.add_argument("--checkpoints", required=True, help="a folder of FAMILY.pt (and all.pt)")
     a4.add_argument("--rows", type=int, default=2000)
@@ -255,7 +271,8 @@ def main(argv=None) -> None:
     a3.add_argument("--reference", type=int, default=60000)
     a = ap.parse_args(argv)
     if a.what == "scorer":
-        scorer_table(a.rows, a.rounds, [f for f in a.families.split(",") if f])
+        scorer_table(a.rows, a.rounds, [f for f in a.families.split(",") if f],
+                     train_rows=a.train_rows)
     elif a.what == "cnn":
         cnn_table(Path(a.checkpoints), a.rows)
     elif a.what == "plans":

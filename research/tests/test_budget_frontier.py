@@ -9,6 +9,14 @@ def test_small_band_budgets_follow_the_graph_size():
     s = _settings("small", 300)
     assert s["base"] == {} and s["s10"] == {"simulations": 30} and s["s07"] == {"simulations": 21}
     assert _settings("small", 3)["s07"] == {"simulations": 1}  # never a zero budget
+    assert s["g05"] == {"gap": 0.05} and s["g05s600"] == {"gap": 0.05, "simulations": 600}
+
+
+def test_the_summary_covers_the_settings_measured():
+    rows = [{"reference": [0.5, 2.0, 10], "base": [0.5, 1.0, 5], "g05": [0.4, 1.0, 6]}]
+    lines = summary(rows, "small")
+    assert [line.split()[0] for line in lines] == ["base", "g05"]
+    assert "min 0.800" in lines[1] and "below 0.95: 1 of 1" in lines[1]
 
 
 def test_summary_divides_by_the_reference_and_counts_the_misses():

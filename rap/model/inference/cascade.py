@@ -24,9 +24,10 @@ trees' and the CNN's numbers (P(high) and expected score), and ``bounds`` answer
 of the two fits' bounds (``rap.model.calibration.LargerBounds`` of the CNN's own,
 ``rap.model.calibration.load()``, and the trees'), through ``GuardedBounds``. Where either model
 rates an operation well the search chooses it and simulates it, so neither model's blind spot
-decides the plan (on four flagged arches of 6-10 parts, the larger of the two reached the better
-model's plan on each: 0.989-1.000 of the optimum, where the CNN alone reached 0.923-1.000 and the
-trees alone 0.989-1.000; research/README.md, "Leave one family out, and the guard"). ``verdict(problem)`` is judged once per geometry (cached);
+decides the plan (on the six flagged assemblies of 6-10 parts measured, five arches and a puzzle,
+the larger of the two reached the better model's plan on each: 0.989-1.000 of the optimum, where
+the CNN alone reached 0.923-1.000 and the trees alone 0.989-1.000; research/README.md, "Leave one
+family out, and the guard"). ``verdict(problem)`` is judged once per geometry (cached);
 ``guard_report(problem)`` is what a plan says when the guard acted (``rap.plan.scoring
 .familiarity.guard_stats``: the plan's ``guard``). A familiar assembly is scored exactly as
 without the guard (same numbers, same bounds). The active bounds follow the assembly this thread
