@@ -193,7 +193,8 @@ class CascadeScorer:
             from rap.model.calibration import LargerBounds, load
 
             cnn = load()
-            self._unfamiliar_bounds = cnn if self._bounds is None else LargerBounds(cnn, self._bounds)
+            larger = cnn if self._bounds is None else LargerBounds(cnn, self._bounds)
+            self._unfamiliar_bounds = larger
         return self._unfamiliar_bounds
 
     @property

@@ -38,8 +38,8 @@ which is spent only where it decides. Its options and their measured defaults ar
    never a worse plan than the settled choice (``stats``: ``stopped``, ``phase1_simulations``,
    ``phase2_simulations``, ``search_bound``). The run's gap is ``_gap(run)``: the option; a
    variant may choose it per assembly (``research/variants/guard_gap.py``: a gap kept on an
-   assembly the scorer's guard found unfamiliar, measured not to pay). In beam mode ``V`` and ``I`` range over the final
-   beam's sequences only (the bound's ``scope``: ``beam``).
+   assembly the scorer's guard found unfamiliar, measured not to pay). In beam mode ``V`` and
+   ``I`` range over the final beam's sequences only (the bound's ``scope``: ``beam``).
 5. **A bound with every plan**: after the plan's steps are simulated for its evaluation, ``V`` is
    computed again with those scores (never below R) and reported as ``PlanResult.bound``
    (``rap.plan.search.scores.report``); its time is ``stats["bound_seconds"]``.
