@@ -34,3 +34,11 @@ def test_mid_summary_compares_with_the_search_without_greedys_start():
     lines = summary([row], "mid")
     assert any(line.startswith("i100") and "R/nostart geometric mean 0.800" in line
                and "time/ref max 2.00" in line for line in lines)
+
+
+def test_mid_band_compares_with_the_cnn_alone_and_needs_no_nostart_row():
+    assert _settings("mid", None)["cnn"] == {"engine": "cnn"}
+    rows = [{"reference": [0.1, 2.0, 10], "i100": [0.2, 4.0, 20], "cnn": [0.25, 6.0, 30]}]
+    lines = summary(rows, "mid")
+    assert [line.split()[0] for line in lines] == ["i100", "cnn"]
+    assert "R/nostart" not in " ".join(lines)
