@@ -76,9 +76,14 @@ def scorer_table(rows: int, rounds: int, families: list[str] | None = None,
     cnn = OperationPredictor.load(CHECKPOINT, engine="cnn")
     sampler = np.random.default_rng(seed + 1)
 
+    def sample(tr):
+        """``tr``, or its seeded sample of ``train_rows`` (drawn for every family in turn, run or
+        not, so a run of some families fits on the rows a full run does)."""
+        if not train_rows:
+            return tr
+        return np.sort(sampler.choice(tr, min(train_rows, len(tr)), replace=False))
+
     def fit(tr) -> DescriptorModel:
-        if train_rows:
-            tr = np.sort(sampler.choice(tr, min(train_rows, len(tr)), replace=False))
         data = lightgbm.Dataset(x[tr].astype(np.float64),
                                 label=store.successes[tr] / store.trials[tr],
                                 weight=store.trials[tr] / 100.0)
@@ -87,13 +92,14 @@ def scorer_table(rows: int, rounds: int, families: list[str] | None = None,
 
     compared = [("trees_shipped", shipped)]
     if train_rows:
-        compared.append(("trees_all", fit(np.flatnonzero(store.family == store.family))))
+        compared.append(("trees_all", fit(sample(np.arange(len(store.family))))))
     out = []
     for fam, pick in _picks(store, rows, seed).items():
         t = time.perf_counter()
+        train = sample(np.flatnonzero(store.family != fam))
         if families and fam not in families:  # drawn anyway: the same rows as a full run's
             continue
-        lofo = fit(np.flatnonzero(store.family != fam))
+        lofo = fit(train)
         labels = store.scores[pick] >= 0.95
         row = {"family": fam, "rows": int(len(pick)), **({"train_rows": train_rows} if train_rows
                                                           else {})}
