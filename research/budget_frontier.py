@@ -16,8 +16,10 @@ sizes), so that a default is not chosen on the figures it is reported with:
 * ``mid`` (18-24 parts): ``improve`` 0.5, 0.75, 1 (shipped) and 1.5 after greedy's start, and the
   exact search without the start (``nostart``, ``greedy_from`` past the parts: the previous
   default's search with this scorer), and the shipped search with the CNN alone as its scorer
-  (``cnn``: issue 45 asks the default's R to be no lower than it there), against simulator-only
-  greedy.
+  (``cnn``: issue 45 asks the default's R to be no lower than it there), and the shipped search
+  with the guard acting on every assembly (``l2``: the larger of the trees' and the CNN's
+  numbers), against simulator-only greedy. ``--detectors``: per mid assembly, the guard's two
+  candidate signals (``detectors``), no planning.
 
 Planning seed 11, 100 trials, the default scorer, simulations in this process, back to back on
 each assembly (ratios within one run). Each row is printed (and appended to ``--jsonl``) as it
@@ -55,7 +57,7 @@ def _settings(band: str, ops: int | None) -> dict[str, dict]:
                 "g05": {"gap": 0.05}, "g05s600": {"gap": 0.05, "simulations": 600}}
     return {"i050": {"improve": 0.5}, "i075": {"improve": 0.75}, "i100": {},
             "i150": {"improve": 1.5}, "nostart": {"greedy_from": 1000},
-            "cnn": {"engine": "cnn"}}
+            "cnn": {"engine": "cnn"}, "l2": {"engine": "larger"}}
 
 
 def _plan(asm, method, model, params, **options) -> list:
@@ -67,6 +69,36 @@ def _plan(asm, method, model, params, **options) -> list:
 def _cnn_alone():
     """The shipped CNN without the descriptor model (the ``cnn`` setting), loaded once."""
     return OperationPredictor.load(SHIPPED_MODEL, engine="cnn")
+
+
+@functools.lru_cache(maxsize=1)
+def _larger_of_two():
+    """The shipped cascade with its guard flagging every assembly (the ``l2`` setting): every
+    operation scored by the trees and the CNN, the larger kept, as on an unfamiliar one."""
+    model = OperationPredictor.load(SHIPPED_MODEL, engine="auto")
+    model.guard.share = -1.0
+    return model
+
+
+def detectors(model, asm) -> dict:
+    """What the guard's two candidate signals say of ``asm`` (planning seed ``SEED``): the share
+    of its sampled operations beyond the familiarity limit (flagged above ``share``), and the mean
+    and largest ``|CNN - trees|`` expected score on the same sample."""
+    import numpy as np
+
+    from rap.model.inference.cascade import GUARD_OPERATIONS, guard_sample
+    from rap.plan.problem import PlanningProblem
+
+    problem = PlanningProblem(asm, SimParams(), SEED)
+    verdict = model.verdict(problem)
+    ops = guard_sample(problem, GUARD_OPERATIONS)
+    d = model.descriptors(problem, ops)
+    trees = model.model.prob_high_and_expected(d)[1]
+    cnn = model.cnn.expected_score(problem, ops)
+    gap = np.abs(np.asarray(cnn) - trees)
+    return {"outside": verdict["outside"], "share": verdict["share"],
+            "disagreement_mean": round(float(gap.mean()), 4),
+            "disagreement_max": round(float(gap.max()), 4)}
 
 
 def rows_for(band: str, seeds: list[int], model, params, only: list[str] | None = None):
@@ -94,7 +126,8 @@ def rows_for(band: str, seeds: list[int], model, params, only: list[str] | None 
             if only and name not in only:
                 continue
             options = dict(options)
-            chosen = _cnn_alone() if options.pop("engine", None) == "cnn" else model
+            engine = options.pop("engine", None)
+            chosen = {"cnn": _cnn_alone, "larger": _larger_of_two}.get(engine, lambda: model)()
             row[name] = _plan(asm, "search", chosen, params, **options)
         yield row
 
@@ -124,8 +157,15 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--assembly-seeds", default="2", help="comma-separated (small band)")
     ap.add_argument("--jsonl", default=None, help="append each row to this file")
     ap.add_argument("--settings", default="", help="comma-separated (default: every setting)")
+    ap.add_argument("--detectors", action="store_true",
+                    help="mid band: the guard's signals per assembly only, no planning")
     a = ap.parse_args(argv)
     model = OperationPredictor.load(SHIPPED_MODEL, engine="auto")
+    if a.detectors:
+        rows = [{"kind": k, "parts": n, "assembly_seed": s, **detectors(model, build(k, n, s))}
+                for k, n, s in MID]
+        print("\n".join(json.dumps(r) for r in rows))
+        return rows
     params = SimParams()
     plan(build("grid", 4), "search", model=model, seed=SEED, params=SimParams(trials=2))  # warm
     reference = "optimum" if a.band == "small" else "greedy"

@@ -191,7 +191,7 @@ def _perturbed_task(args):  # a worker process
 def _scores(problem, ops, work: Path, tag: str, run) -> dict[str, float]:
     """``{key: score}`` of ``ops`` (free ones 1), those missing from ``work/<assembly>.<tag>.json``
     computed by ``run(missing ops) -> successes`` and written there (a rerun resumes)."""
-    path = work / f"{problem.assembly.name}.{tag}.json"
+    path = work / f"{problem.assembly.name}.{problem.root_seed}.{tag}.json"
     known = json.loads(path.read_text()) if path.exists() else {}
     missing = {}
     for op in ops:
@@ -219,7 +219,7 @@ def best_sequence(problem, graph, score: dict[str, float]) -> tuple[float, tuple
     return best[whole], tuple(s.to_operation() for s in assembly_order(choice, whole))
 
 
-def evaluate(path: Path, pool, sim, offsets: np.ndarray, work: Path) -> dict:
+def evaluate(path: Path, pool, sim, offsets: np.ndarray, work: Path, seed: int = 0) -> dict:
     from rap.execution.rollout import RolloutPlan, chunks
     from rap.execution.sequence import tally
     from rap.io import load_assembly
@@ -229,7 +229,7 @@ def evaluate(path: Path, pool, sim, offsets: np.ndarray, work: Path) -> dict:
 
     t0 = time.perf_counter()
     asm = load_assembly(path)
-    problem = PlanningProblem(asm, SimParams(), 0)
+    problem = PlanningProblem(asm, SimParams(), seed)
     errors, mmu = _cell_options(asm)
     graph = reachable(problem)
     ops = [op for c in graph.values() for op in c]
@@ -241,7 +241,7 @@ def evaluate(path: Path, pool, sim, offsets: np.ndarray, work: Path) -> dict:
     t_scores = time.perf_counter() - t0
     plans = {"exact": best_sequence(problem, graph, exact),
              "perturbed": best_sequence(problem, graph, pert)}
-    row = {"assembly": asm.name, "parts": len(asm.parts), "operations": len(ops),
+    row = {"assembly": asm.name, "parts": len(asm.parts), "seed": seed, "operations": len(ops),
            "same_plan": plans["exact"][1] == plans["perturbed"][1],
            "mean_exact": float(np.mean(list(exact.values()))),
            "mean_perturbed": float(np.mean(list(pert.values())))}
@@ -258,7 +258,7 @@ def evaluate(path: Path, pool, sim, offsets: np.ndarray, work: Path) -> dict:
     return row
 
 
-def plans_command(names: list[str], jsonl: Path | None, work: Path) -> None:
+def plans_command(names: list[str], jsonl: Path | None, work: Path, seed: int = 0) -> None:
     from concurrent.futures import ProcessPoolExecutor
 
     from rap.plan.scoring.local_simulator import LocalSimulator
@@ -271,7 +271,7 @@ def plans_command(names: list[str], jsonl: Path | None, work: Path) -> None:
     try:
         with ProcessPoolExecutor(2) as pool:
             for name in names:
-                row = evaluate(_path(name), pool, sim, offsets, work)
+                row = evaluate(_path(name), pool, sim, offsets, work, seed)
                 rows.append(row)
                 print(json.dumps(row), flush=True)
                 if jsonl:
@@ -303,11 +303,12 @@ def main() -> None:
     ap.add_argument("--rollouts", type=int, default=200, help="offsets: rollouts an assembly")
     ap.add_argument("--jsonl", type=Path)
     ap.add_argument("--work", type=Path, default=Path("/tmp/perturbed_starts"))
+    ap.add_argument("--seed", type=int, default=0, help="plans: the root seed of both scores")
     args = ap.parse_args()
     if args.command == "offsets":
         offsets_command(args.assemblies or CALIBRATION, args.rollouts)
     else:
-        plans_command(args.assemblies or TIGHT, args.jsonl, args.work)
+        plans_command(args.assemblies or TIGHT, args.jsonl, args.work, args.seed)
 
 
 if __name__ == "__main__":
