@@ -58,7 +58,7 @@ def _family_command(gen: typer.Typer, family) -> None:
             None, f"--{o.name.replace('_', '-')}", metavar="INT" if o.kind == "int" else "CHOICE",
             help=_option_help(o), show_default=False)))
     params.append(inspect.Parameter("output", kw, annotation=Path, default=typer.Option(
-        ..., "-o", "--output", help="Output JSON file.")))
+        ..., "-o", "--out", "--output", help="Output JSON file (--output: the same).")))
 
     def command(**values):
         from rap.commands._flags import flags
@@ -109,7 +109,8 @@ def register(app: typer.Typer) -> None:
     @gen.command("grid")
     def grid_cmd(k: int = typer.Option(..., "--k", min=1, help="Squares per side."),
                  size: int = typer.Option(10, "--size", min=1, help="Side of a square."),
-                 output: Path = typer.Option(..., "-o", "--output", help="Output JSON file.")):
+                 output: Path = typer.Option(..., "-o", "--out", "--output",
+                                             help="Output JSON file (--output: the same).")):
         """k x k grid of touching squares."""
         from rap.geometry.families.simple import grid
 
@@ -118,7 +119,8 @@ def register(app: typer.Typer) -> None:
     @gen.command("tiling")
     def tiling_cmd(parts: int = typer.Option(..., "--parts", min=1, help="Number of parts."),
                    seed: int = typer.Option(0, "--seed", help="Random seed."),
-                   output: Path = typer.Option(..., "-o", "--output", help="Output JSON file.")):
+                   output: Path = typer.Option(..., "-o", "--out", "--output",
+                                             help="Output JSON file (--output: the same).")):
         """Random tiling: a jittered grid of convex quads."""
         import numpy as np
 

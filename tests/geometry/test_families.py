@@ -224,6 +224,19 @@ def test_cli_generates_every_family(tmp_path, run_cli, generated, name):
     assert f"({len(asm)} parts)" in stdout
 
 
+@pytest.mark.parametrize("argv", [["wall", "--seed", "3"], ["grid", "--k", "3"],
+                                  ["tiling", "--parts", "4"]])
+def test_cli_output_is_out_like_every_other_command_and_output_still_works(tmp_path, run_cli,
+                                                                            argv):
+    written = []
+    for flag in ("--out", "--output", "-o"):
+        out = tmp_path / f"{flag.strip('-')}.json"
+        code, _, err = run_cli("generate", *argv, flag, out)
+        assert code == 0, err
+        written.append(out.read_text())
+    assert written[0] == written[1] == written[2]
+
+
 def test_cli_options_and_list(tmp_path, run_cli):
     out = tmp_path / "wall.json"
     code, _, err = run_cli("generate", "wall", "--seed", "17", "--rows", "4", "--bricks", "5",
