@@ -31,7 +31,7 @@ from rap.assembly import LIMITS
 from rap.cad.drawing import Problem, Source
 from rap.cad.edges import Node
 from rap.cad.rings import ExactRing
-from rap.geometry.exact import orient
+from rap.geometry.exact import bounding_box, orient
 from rap.geometry.validation import point_in_ring
 
 __all__ = ["ExactPart", "interior_point", "nest", "group_parts", "canonical_ring",
@@ -74,15 +74,9 @@ def interior_point(ring: list[Node]) -> tuple[Fraction, Fraction]:
     return (Fraction(v[0] + best[0], 2), Fraction(v[1] + best[1], 2))
 
 
-def _box(ring: list[Node]) -> tuple[int, int, int, int]:
-    xs = [p[0] for p in ring]
-    ys = [p[1] for p in ring]
-    return min(xs), min(ys), max(xs), max(ys)
-
-
 def nest(rings: list[ExactRing]) -> list[list[int]]:
     """For each ring, the indices of the rings it lies in (see the module doc)."""
-    boxes = [_box(r.vertices) for r in rings]
+    boxes = [bounding_box(r.vertices) for r in rings]
     areas = [abs(r.area2) for r in rings]
     inner = [interior_point(r.vertices) for r in rings]
     held: list[list[int]] = [[] for _ in rings]

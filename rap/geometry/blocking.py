@@ -31,7 +31,7 @@ import heapq
 from dataclasses import dataclass
 from typing import Sequence
 
-from rap.geometry.exact import IVec, angle_key, in_open_arc, primitive
+from rap.geometry.exact import IVec, angle_key, bounding_box, in_open_arc, primitive
 
 __all__ = ["BlockedSet", "EMPTY", "FULL", "piece_cone", "merge_arcs", "blocking_arcs", "PieceTree",
            "piece_tree", "tree_blocking_arcs", "convex_hull"]
@@ -170,18 +170,13 @@ def convex_hull(points: Sequence[IVec]) -> tuple[IVec, ...]:
     return tuple(lower[:-1] + upper[:-1])
 
 
-def _box(points) -> tuple[int, int, int, int]:
-    xs, ys = [p[0] for p in points], [p[1] for p in points]
-    return min(xs), min(ys), max(xs), max(ys)
-
-
 def piece_tree(pieces: Sequence[Sequence[IVec]]) -> PieceTree:
     """The hierarchy of a part's convex pieces, split at the median of the pieces' centres along
     the longer side of their box. O(k log^2 k) for k pieces, plus the hulls."""
     if len(pieces) == 1:
         piece = tuple(pieces[0])
-        return PieceTree(piece, _box(piece), 1)
-    box = _box([p for piece in pieces for p in piece])
+        return PieceTree(piece, bounding_box(piece), 1)
+    box = bounding_box([p for piece in pieces for p in piece])
     axis = 0 if box[2] - box[0] >= box[3] - box[1] else 1
     order = sorted(pieces, key=lambda pc: sum(p[axis] for p in pc) / len(pc))
     half_ = len(order) // 2

@@ -48,7 +48,7 @@ from types import MappingProxyType
 from typing import Iterable, Mapping
 
 from rap.assembly import Assembly
-from rap.geometry.exact import IntPart, cross, dot, primitive, to_integers
+from rap.geometry.exact import IntPart, bounding_box, cross, dot, primitive, to_integers
 
 __all__ = ["Contact", "contact_segments", "contact_table", "contacts_within", "touching",
            "meeting_pairs"]
@@ -81,12 +81,6 @@ def _edges(part: IntPart):
         n = len(ring)
         for i in range(n):
             yield ring[i], ring[(i + 1) % n]
-
-
-def _bbox(part: IntPart) -> tuple[int, int, int, int]:
-    xs = [x for x, _ in part.outer]
-    ys = [y for _, y in part.outer]
-    return min(xs), min(ys), max(xs), max(ys)
 
 
 def _edge_contacts(a: IntPart, b: IntPart) -> list[_IContact]:
@@ -199,8 +193,8 @@ _LOCK = threading.Lock()
 
 def _build(assembly: Assembly) -> _Table:
     ia = to_integers(assembly)
-    parts = sorted(ia.parts, key=lambda p: _bbox(p)[0])
-    boxes = {p.id: _bbox(p) for p in parts}
+    parts = sorted(ia.parts, key=lambda p: bounding_box(p.outer)[0])
+    boxes = {p.id: bounding_box(p.outer) for p in parts}
     pairs: dict[tuple[str, str], tuple[Contact, ...]] = {}
     for i, pa in enumerate(parts):
         ax0, ay0, ax1, ay1 = boxes[pa.id]

@@ -30,6 +30,7 @@ __all__ = [
     "cross",
     "dot",
     "orient",
+    "bounding_box",
     "primitive",
     "same_direction",
     "half",
@@ -101,6 +102,14 @@ def cross(ax, ay, bx, by):
 
 def dot(ax, ay, bx, by):
     return ax * bx + ay * by
+
+
+def bounding_box(points: Sequence[Sequence]) -> tuple:
+    """``(min x, min y, max x, max y)`` of a non-empty sequence of points, in their own number
+    type (exact for integers and fractions). O(len(points))."""
+    xs = [p[0] for p in points]
+    ys = [p[1] for p in points]
+    return min(xs), min(ys), max(xs), max(ys)
 
 
 def orient(p: Sequence, q: Sequence, r: Sequence):

@@ -29,7 +29,7 @@ import numpy as np
 
 from rap.assembly import Assembly, AssemblyError
 from rap.geometry.batch import MAX_EXACT_FLOAT_INT, box_pairs, crossing_signs
-from rap.geometry.exact import IVec, IntAssembly, orient, to_integers
+from rap.geometry.exact import IVec, IntAssembly, bounding_box, orient, to_integers
 from rap.geometry.triangulate import convex_pieces
 
 __all__ = ["validate_assembly", "validate_int_assembly", "segments_intersect",
@@ -51,12 +51,6 @@ def segments_intersect(a, b, c, d) -> bool:
         return True
     return ((d1 == 0 and _on_segment(c, d, a)) or (d2 == 0 and _on_segment(c, d, b))
             or (d3 == 0 and _on_segment(a, b, c)) or (d4 == 0 and _on_segment(a, b, d)))
-
-
-def _bbox(ring):
-    xs = [p[0] for p in ring]
-    ys = [p[1] for p in ring]
-    return min(xs), min(ys), max(xs), max(ys)
 
 
 def ring_is_simple(ring: Sequence[IVec]) -> bool:
@@ -144,7 +138,7 @@ def _rings_meet(r1, r2) -> bool:
     """Do two rings' boundaries share a point? (exact; edges paired by a float box filter
     first, in blocks, so the cost is O(n1 n2 / 256) numpy work plus exact tests on the edge
     pairs whose boxes meet)"""
-    b1, b2 = _bbox(r1), _bbox(r2)
+    b1, b2 = bounding_box(r1), bounding_box(r2)
     if b1[2] < b2[0] or b2[2] < b1[0] or b1[3] < b2[1] or b2[3] < b1[1]:
         return False
     n1, n2 = len(r1), len(r2)
@@ -205,8 +199,8 @@ def validate_int_assembly(ia: IntAssembly) -> list[list[tuple[IVec, ...]]]:
                 if _rings_meet(h, g) or point_in_ring(h[0], g) == 1 or point_in_ring(g[0], h) == 1:
                     raise AssemblyError(src, p.id, f"holes {j} and {k} overlap or touch")
     pieces = part_pieces(ia)
-    boxes = [_bbox(p.outer) for p in ia.parts]
-    piece_boxes = [[_bbox(pc) for pc in pcs] for pcs in pieces]
+    boxes = [bounding_box(p.outer) for p in ia.parts]
+    piece_boxes = [[bounding_box(pc) for pc in pcs] for pcs in pieces]
     n = len(ia.parts)
     order = sorted(range(n), key=lambda i: boxes[i][0])
     for oi, i in enumerate(order):  # sweep on x: only boxes whose interiors overlap are tested

@@ -8,9 +8,9 @@ from fractions import Fraction
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from rap.geometry.exact import (angle_key, arc_interior_vector, arc_middle_unit, compare_angle,
-                                exact_direction, in_open_arc, primitive, same_direction,
-                                scale_factor, to_integers)
+from rap.geometry.exact import (angle_key, arc_interior_vector, arc_middle_unit, bounding_box,
+                                compare_angle, exact_direction, in_open_arc, primitive,
+                                same_direction, scale_factor, to_integers)
 
 from .fixtures import DECIMALS, GRID2
 
@@ -70,3 +70,17 @@ def test_special_arcs():
     assert not in_open_arc((1, 0), (1, 1), (1, -1))
     assert primitive((4, -6)) == (2, -3)
     assert exact_direction((Fraction(1, 3), Fraction(1, 2))) == (2, 3)
+
+
+@given(st.lists(st.tuples(st.integers(-10**30, 10**30), st.integers(-10**30, 10**30)), min_size=1,
+                max_size=20))
+def test_bounding_box_holds_every_point_and_touches_the_extremes_exactly(points):
+    x0, y0, x1, y1 = bounding_box(points)
+    assert all(x0 <= x <= x1 and y0 <= y <= y1 for x, y in points)
+    assert {x0, x1} <= {x for x, _ in points} and {y0, y1} <= {y for _, y in points}
+
+
+def test_bounding_box_keeps_fractions_exact():
+    box = bounding_box([(Fraction(1, 3), Fraction(-2, 7)), (Fraction(1, 2), Fraction(5, 3))])
+    assert box == (Fraction(1, 3), Fraction(-2, 7), Fraction(1, 2), Fraction(5, 3))
+    assert all(isinstance(v, Fraction) for v in box)
