@@ -18,8 +18,9 @@ sizes), so that a default is not chosen on the figures it is reported with:
   exact search without the start (``nostart``, ``greedy_from`` past the parts: the previous
   default's search with this scorer), and the shipped search with the CNN alone as its scorer
   (``cnn``: issue 45 asks the default's R to be no lower than it there), and the shipped search
-  with the guard acting on every assembly (``l2``: the larger of the trees' and the CNN's
-  numbers), against simulator-only greedy. ``--detectors``: per mid assembly, the guard's two
+  with the guard acting on every assembly (``l2``: its action, the larger of the trees' and the
+  CNN's numbers until the seventh session, their mean since; ``budget_frontier.mid_l2.jsonl``
+  holds the larger), against simulator-only greedy. ``--detectors``: per mid assembly, the guard's two
   candidate signals (``detectors``), no planning.
 
 Planning seed 11, 100 trials, the default scorer, simulations in this process, back to back on
@@ -76,7 +77,7 @@ def _cnn_alone():
 @functools.lru_cache(maxsize=1)
 def _larger_of_two():
     """The shipped cascade with its guard flagging every assembly (the ``l2`` setting): every
-    operation scored by the trees and the CNN, the larger kept, as on an unfamiliar one."""
+    operation scored by the trees and the CNN and combined, as on an unfamiliar one."""
     model = OperationPredictor.load(SHIPPED_MODEL, engine="auto")
     model.guard.share = -1.0
     return model

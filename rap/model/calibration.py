@@ -19,8 +19,9 @@ are needed.
 
 Special bounds: ``ScoreBounds.trivial()`` (no calibration: every operation bounded by 1; what
 ``load()`` gives when the shipped file is absent, with a note in ``provenance``) and
-``ScoreBounds.zero_width()`` (a perfect scorer: ``upper(p) = p``). ``LargerBounds(a, b)``: for a
-score that is the larger of two scorers' predictions, the larger of their bounds.
+``ScoreBounds.zero_width()`` (a perfect scorer: ``upper(p) = p``). ``MeanBounds(a, b)``: for a
+score that is the mean of two scorers' predictions, the larger of their *rising envelopes*
+(``ScoreBounds.rising``) at half the miss rate each.
 
 ``to_json``/``from_json`` and ``save``/``load`` keep a fit in a file (``DEFAULT_PATH``,
 ``rap/data/score_bounds.json``: the shipped model's calibration), with ``provenance`` (the model's
@@ -46,7 +47,7 @@ import numpy as np
 
 from rap.stats import check_level
 
-__all__ = ["ScoreBounds", "LargerBounds", "fit", "load", "save", "min_count", "DEFAULT_PATH",
+__all__ = ["ScoreBounds", "MeanBounds", "fit", "load", "save", "min_count", "DEFAULT_PATH",
            "DEFAULT_BINS", "FORMAT"]
 
 DEFAULT_PATH = Path(__file__).resolve().parents[1] / "data" / "score_bounds.json"
@@ -144,6 +145,18 @@ class ScoreBounds:
         with np.errstate(invalid="ignore"):
             return np.clip(np.where(np.isinf(q), 1.0, p + q), 0.0, 1.0)
 
+    def rising(self, p, level: float) -> np.ndarray:
+        """The least bound that rises with ``p`` and is at least ``upper`` everywhere at or below
+        ``p``: ``max(upper(p), max over the bins below p's of min(1, their upper edge + q))``.
+        ``upper`` is not monotone across bins (a bin of wide residuals below one of narrow
+        ones); ``rising(p) >= upper(p')`` for every ``p' <= p``. O(m log bins)."""
+        p = np.asarray(p, dtype=np.float64)
+        q = self.margins(level)
+        tops = np.where(np.isinf(q[:-1]), 1.0,
+                        np.minimum(1.0, np.asarray(self.edges, dtype=np.float64) + q[:-1]))
+        below = np.maximum.accumulate(np.concatenate(([0.0], tops)))  # best of bins under bin i
+        return np.maximum(self.upper(p, level), below[self.bin_of(p)])
+
     def to_json(self) -> dict:
         """A JSON document (``from_json`` reads it back)."""
         return {"format": FORMAT, "version": 1, "perfect": self.perfect,
@@ -165,20 +178,22 @@ class ScoreBounds:
 
 
 @dataclass(frozen=True)
-class LargerBounds:
-    """The bounds of a score that is the larger of two scorers' predictions (``p = max(p_a,
-    p_b)``, as the default scorer's guard gives on an unfamiliar assembly): ``upper(p, level) =
-    max(first.upper(p), second.upper(p))``. It is at least the bound of the scorer whose
-    prediction ``p`` is, at its own ``p``, so it holds whenever that scorer's bound holds (for
-    operations exchangeable with its calibration operations; which scorer predicts higher is
-    chosen by the data, a selection that favours over-predictions, so the bound errs high).
-    ``perfect`` and ``calibrated`` when both are; ``provenance`` names both fits."""
+class MeanBounds:
+    """The bounds of a score that is the mean of two scorers' predictions (``p = (p_a + p_b) /
+    2``, as the default scorer's guard gives on an unfamiliar assembly): ``upper(p, level) =
+    max(first.rising(p, l2), second.rising(p, l2))`` with ``l2 = (1 + level) / 2``. The mean
+    lies at or above the lower of the two predictions, so the bound is at least that scorer's
+    bound at its own prediction and level ``l2``; whichever scorer that is, the bound fails only
+    where one of the two scorers' bounds at ``l2`` fails, so with probability at most ``1 -
+    level`` (the union bound; for operations exchangeable with both calibration sets). Both must
+    be ``ScoreBounds``. ``perfect`` and ``calibrated`` when both are."""
 
     first: ScoreBounds
     second: ScoreBounds
 
     def upper(self, p, level: float) -> np.ndarray:
-        return np.maximum(self.first.upper(p, level), self.second.upper(p, level))
+        half = (1.0 + check_level(level)) / 2.0
+        return np.maximum(self.first.rising(p, half), self.second.rising(p, half))
 
     @property
     def perfect(self) -> bool:
@@ -194,7 +209,7 @@ class LargerBounds:
             return ", ".join(str(b.provenance[k]) for k in ("model", "set", "date")
                              if k in b.provenance) or "uncalibrated"
 
-        return {"model": f"the larger of two fits ({what(self.first)}; {what(self.second)})"}
+        return {"model": f"the mean of two fits ({what(self.first)}; {what(self.second)})"}
 
 
 def fit(predicted, simulated, *, bins: int = DEFAULT_BINS,

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from rap.model.calibration import FORMAT, LargerBounds, ScoreBounds, fit, load, min_count, save
+from rap.model.calibration import FORMAT, MeanBounds, ScoreBounds, fit, load, min_count, save
 from rap.stats import bonferroni
 
 
@@ -37,9 +37,10 @@ def test_coverage_on_fresh_draws(level):
     assert np.mean(up < 1.0) > 0.5
 
 
-def test_larger_bounds_cover_the_larger_of_two_predictions():
+def test_mean_bounds_cover_the_mean_of_two_predictions():
     """Two scorers of the same operations, one biased low and one noisy; a score that is the
-    larger of their predictions is covered by the larger of their fits' bounds at the level."""
+    mean of their predictions is covered by MeanBounds at the level, and the bound is at least
+    the lower scorer's own bound at its own prediction (half the miss rate)."""
     rng = np.random.default_rng(11)
 
     def two(n):
@@ -49,18 +50,33 @@ def test_larger_bounds_cover_the_larger_of_two_predictions():
         return s, low, noisy
 
     s, a, b = two(4000)
-    both = LargerBounds(fit(a, s), fit(b, s))
+    both = MeanBounds(fit(a, s), fit(b, s))
     s, a, b = two(40000)
     level = 0.9
-    up = both.upper(np.maximum(a, b), level)
+    up = both.upper((a + b) / 2, level)
     assert np.mean(s <= up) >= level - 0.01
-    q = np.linspace(0, 1, 21)
-    assert np.all(up >= 0) and np.all(both.upper(q, level) >= both.first.upper(q, level))
-    assert np.all(both.upper(q, level) >= both.second.upper(q, level))
+    half = (1 + level) / 2
+    own = np.where(a <= b, both.first.upper(a, half), both.second.upper(b, half))
+    assert np.all(up >= own - 1e-12)
     assert both.calibrated and not both.perfect
-    named = LargerBounds(ScoreBounds(provenance={"model": "m1", "date": "d"}), ScoreBounds.trivial())
-    assert named.provenance["model"].startswith("the larger of two fits (m1, d; ")
-    assert not named.calibrated  # the trivial fit bounds by 1: so does the larger
+    named = MeanBounds(ScoreBounds(provenance={"model": "m1", "date": "d"}), ScoreBounds.trivial())
+    assert named.provenance["model"].startswith("the mean of two fits (m1, d; ")
+    assert not named.calibrated  # the trivial fit bounds by 1: so does the pair
+
+
+def test_rising_is_the_least_monotone_bound_above_upper():
+    """A bin of wide residuals under one of narrow ones makes ``upper`` fall at the edge;
+    ``rising`` does not fall, is at least ``upper`` at every lower score, and equals it where
+    ``upper`` already rises."""
+    p = np.concatenate([np.full(300, 0.3), np.full(300, 0.8)])
+    s = np.concatenate([np.linspace(0.0, 0.9, 300), np.full(300, 0.81)])
+    b = fit(p, s, bins=2)
+    q = np.linspace(0, 1, 201)
+    up, rise = b.upper(q, 0.9), b.rising(q, 0.9)
+    assert np.any(np.diff(up) < 0)  # the fixture does fall
+    assert np.all(np.diff(rise) >= 0)
+    assert np.all(rise >= np.maximum.accumulate(up) - 1e-12)
+    np.testing.assert_array_equal(rise[q < b.edges[0]], up[q < b.edges[0]])
 
 
 def test_conformal_rank_and_small_bins():

@@ -1,7 +1,7 @@
 """The default scorer's guard (rap.model.inference.cascade, descriptor_model.Familiarity): a
 familiar assembly is scored and bounded exactly as without it; an unfamiliar one (a held-out
-shape kind) is flagged, scored by the larger of the trees' and the CNN's numbers and bounded by the
-larger of their bounds; the plan says so; its plan reaches 0.95 of the optimum."""
+shape kind) is flagged, scored by the mean of the trees' and the CNN's numbers and bounded by both
+fits (MeanBounds); the plan says so; its plan reaches 0.95 of the optimum."""
 
 from __future__ import annotations
 
@@ -76,10 +76,11 @@ def test_familiar_assembly_is_scored_and_bounded_as_without_the_guard(cascade):
     np.testing.assert_array_equal(cascade.bounds.upper(p, 0.99), bare.bounds.upper(p, 0.99))
 
 
-def test_unfamiliar_assembly_is_flagged_and_takes_the_larger_of_the_trees_and_the_cnn(cascade):
-    """On an unfamiliar assembly every operation is scored by the CNN too and takes the larger of
-    the two models' numbers; the bounds are the larger of the two fits' (LargerBounds)."""
-    from rap.model.calibration import LargerBounds
+def test_unfamiliar_assembly_is_flagged_and_takes_the_mean_of_the_trees_and_the_cnn(cascade):
+    """On an unfamiliar assembly every operation is scored by the CNN too and takes the mean of
+    the two models' numbers; the bounds are both fits' rising envelopes at half the miss rate
+    each (MeanBounds), at least the lower model's own bound at its own number."""
+    from rap.model.calibration import MeanBounds
 
     problem = _problem(UNFAMILIAR)
     ops = list(problem.candidates(problem.whole))
@@ -90,16 +91,20 @@ def test_unfamiliar_assembly_is_flagged_and_takes_the_larger_of_the_trees_and_th
     assert cascade.guarded - before == len(ops)
     cnn = cascade.cnn.prob_high_and_expected(problem, ops)
     trees = cascade.model.prob_high_and_expected(cascade.descriptors(problem, ops))
-    np.testing.assert_allclose(e, np.maximum(cnn[1], trees[1]), atol=1e-6)
-    np.testing.assert_allclose(p, np.maximum(cnn[0], trees[0]), atol=1e-6)
+    np.testing.assert_allclose(e, (cnn[1] + trees[1]) / 2, atol=1e-6)
+    np.testing.assert_allclose(p, (cnn[0] + trees[0]) / 2, atol=1e-6)
     assert np.any(cnn[1] > trees[1] + 1e-3) and np.any(trees[1] > cnn[1] + 1e-3)  # both count
     bounds = cascade.bounds
-    assert isinstance(bounds, GuardedBounds) and isinstance(cascade.active_bounds(), LargerBounds)
+    assert isinstance(bounds, GuardedBounds) and isinstance(cascade.active_bounds(), MeanBounds)
     q = np.linspace(0, 1, 11)
-    want = np.maximum(cnn_bounds().upper(q, 0.99), cascade._bounds.upper(q, 0.99))
+    half = (1 + 0.99) / 2
+    want = np.maximum(cnn_bounds().rising(q, half), cascade._bounds.rising(q, half))
     np.testing.assert_array_equal(bounds.upper(q, 0.99), want)
-    assert bounds.calibrated and not bounds.perfect and "larger of two" in bounds.provenance["model"]
-    assert "larger of the trees' and the CNN's" in cascade.guard_report(problem)["action"]
+    lower = np.where(cnn[1] <= trees[1], cnn_bounds().upper(cnn[1], half),
+                     cascade._bounds.upper(trees[1], half))  # the lower model's, at its number
+    assert np.all(bounds.upper(e, 0.99) >= lower - 1e-12)
+    assert bounds.calibrated and not bounds.perfect and "mean of two" in bounds.provenance["model"]
+    assert "mean of the trees' and the CNN's" in cascade.guard_report(problem)["action"]
 
 
 def test_batch_first_follows_the_assembly_judged_last(cascade):
