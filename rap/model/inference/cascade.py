@@ -24,10 +24,10 @@ trees' and the CNN's numbers (P(high) and expected score), and ``bounds`` answer
 bounds (``rap.model.calibration.MeanBounds`` of the CNN's own, ``rap.model.calibration.load()``,
 and the trees'), through ``GuardedBounds``. Neither model decides alone where it is lost: on the
 flagged assemblies of 6-11 parts measured (arches, a puzzle, tilings), the mean reached
-0.972-1.000 of the optimum, where the CNN alone reached 0.888-1.000 and the larger of the two
+0.935-1.000 of the optimum, where the CNN alone reached 0.888-1.000 and the larger of the two
 (the action before) 0.735-1.000: on a flagged 11-part tiling the trees rate 88% of the sampled
 operations 0.1 or more above the CNN, and the larger of the two followed them
-(research/README.md, "The guard's action"). ``verdict(problem)`` is judged once per geometry
+(research/README.md, "The mean of the two"). ``verdict(problem)`` is judged once per geometry
 (cached);
 ``guard_report(problem)`` is what a plan says when the guard acted (``rap.plan.scoring
 .familiarity.guard_stats``: the plan's ``guard``). A familiar assembly is scored exactly as
