@@ -60,7 +60,7 @@ def _settings(band: str, ops: int | None) -> dict[str, dict]:
                 "cnn": {"engine": "cnn"}}
     return {"i050": {"improve": 0.5}, "i075": {"improve": 0.75}, "i100": {},
             "i150": {"improve": 1.5}, "nostart": {"greedy_from": 1000},
-            "cnn": {"engine": "cnn"}, "l2": {"engine": "larger"}}
+            "cnn": {"engine": "cnn"}, "l2": {"engine": "guarded"}}
 
 
 def _plan(asm, method, model, params, **options) -> list:
@@ -75,7 +75,7 @@ def _cnn_alone():
 
 
 @functools.lru_cache(maxsize=1)
-def _larger_of_two():
+def _guard_everywhere():
     """The shipped cascade with its guard flagging every assembly (the ``l2`` setting): every
     operation scored by the trees and the CNN and combined, as on an unfamiliar one."""
     model = OperationPredictor.load(SHIPPED_MODEL, engine="auto")
@@ -130,7 +130,7 @@ def rows_for(band: str, seeds: list[int], model, params, only: list[str] | None 
                 continue
             options = dict(options)
             engine = options.pop("engine", None)
-            chosen = {"cnn": _cnn_alone, "larger": _larger_of_two}.get(engine, lambda: model)()
+            chosen = {"cnn": _cnn_alone, "guarded": _guard_everywhere}.get(engine, lambda: model)()
             row[name] = _plan(asm, "search", chosen, params, **options)
         yield row
 

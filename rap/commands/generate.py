@@ -38,6 +38,12 @@ def _write(assembly, out: Path) -> None:
     typer.echo(f"wrote {out} ({len(assembly)} parts)")
 
 
+def _output_option():
+    """Every generator's output file: ``-o``/``--out`` as every other command, ``--output`` too."""
+    return typer.Option(..., "-o", "--out", "--output",
+                        help="Output JSON file (--output: the same).")
+
+
 def _option_help(option) -> str:
     allowed = ", ".join(option.choices) if option.choices else f"{option.low}..{option.high}"
     if option.default is not None:
@@ -57,8 +63,7 @@ def _family_command(gen: typer.Typer, family) -> None:
         params.append(inspect.Parameter(o.name, kw, annotation=Optional[str], default=typer.Option(
             None, f"--{o.name.replace('_', '-')}", metavar="INT" if o.kind == "int" else "CHOICE",
             help=_option_help(o), show_default=False)))
-    params.append(inspect.Parameter("output", kw, annotation=Path, default=typer.Option(
-        ..., "-o", "--out", "--output", help="Output JSON file (--output: the same).")))
+    params.append(inspect.Parameter("output", kw, annotation=Path, default=_output_option()))
 
     def command(**values):
         from rap.commands._flags import flags
@@ -109,8 +114,7 @@ def register(app: typer.Typer) -> None:
     @gen.command("grid")
     def grid_cmd(k: int = typer.Option(..., "--k", min=1, help="Squares per side."),
                  size: int = typer.Option(10, "--size", min=1, help="Side of a square."),
-                 output: Path = typer.Option(..., "-o", "--out", "--output",
-                                             help="Output JSON file (--output: the same).")):
+                 output: Path = _output_option()):
         """k x k grid of touching squares."""
         from rap.geometry.families.simple import grid
 
@@ -119,8 +123,7 @@ def register(app: typer.Typer) -> None:
     @gen.command("tiling")
     def tiling_cmd(parts: int = typer.Option(..., "--parts", min=1, help="Number of parts."),
                    seed: int = typer.Option(0, "--seed", help="Random seed."),
-                   output: Path = typer.Option(..., "-o", "--out", "--output",
-                                             help="Output JSON file (--output: the same).")):
+                   output: Path = _output_option()):
         """Random tiling: a jittered grid of convex quads."""
         import numpy as np
 
