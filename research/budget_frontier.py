@@ -9,19 +9,20 @@ sizes), so that a default is not chosen on the figures it is reported with:
 
 * ``small`` (6-12 parts, below ``greedy_from``): the exact search's refine with its shipped budget
   (``base``: 200 simulations, ``upper`` 0.35), with a budget of 10% or 7% of the graph's
-  operations (``s10``, ``s07``), with a lower bound share (``u25``, ``u20``), and simulating
-  until within 5% of the bound on the optimum (issue 45, 3: ``g05``, the shipped budget;
-  ``g05s600``, three times it), and the shipped search with the CNN alone (``cnn``: issue 45 asks
-  the default never more than 0.03 below it), against the optimum (every operation simulated): R
-  / optimum's R and time / optimum's time;
-* ``mid`` (18-24 parts): ``improve`` 0.5, 0.75, 1 (shipped) and 1.5 after greedy's start, and the
-  exact search without the start (``nostart``, ``greedy_from`` past the parts: the previous
-  default's search with this scorer), and the shipped search with the CNN alone as its scorer
-  (``cnn``: issue 45 asks the default's R to be no lower than it there), and the shipped search
-  with the guard acting on every assembly (``l2``: its action, the larger of the trees' and the
-  CNN's numbers until the seventh session, their mean since; ``budget_frontier.mid_l2.jsonl``
-  holds the larger), against simulator-only greedy. ``--detectors``: per mid assembly, the guard's two
-  candidate signals (``detectors``), no planning.
+  operations (``s10``, ``s07``), with a lower or a higher bound share (``u25``, ``u20``; ``u50``,
+  ``u60``), and simulating until within 5% of the bound on the optimum (issue 45, 3: ``g05``, the
+  shipped budget; ``g05s600``, three times it), and the shipped search with the CNN alone
+  (``cnn``: issue 45 asks the default never more than 0.03 below it), against the optimum (every
+  operation simulated): R / optimum's R and time / optimum's time;
+* ``mid`` (18-24 parts): ``improve`` 0.5, 0.75, 1 (shipped) and 1.5 after greedy's start, and 1
+  with ``upper`` 0.5 (``u50``), and the exact search without the start (``nostart``,
+  ``greedy_from`` past the parts: the previous default's search with this scorer), and the shipped
+  search with the CNN alone as its scorer (``cnn``: issue 45 asks the default's R to be no lower
+  than it there), and the shipped search with the guard acting on every assembly (``l2``: its
+  action, the larger of the trees' and the CNN's numbers until the seventh session, their mean
+  since; ``budget_frontier.mid_l2.jsonl`` holds the larger), against simulator-only greedy.
+  ``--detectors``: per mid assembly, the guard's two candidate signals (``detectors``), no
+  planning.
 
 Planning seed 11, 100 trials, the default scorer, simulations in this process, back to back on
 each assembly (ratios within one run). Each row is printed (and appended to ``--jsonl``) as it
@@ -56,10 +57,12 @@ def _settings(band: str, ops: int | None) -> dict[str, dict]:
         return {"base": {}, "s10": {"simulations": max(1, -(-ops * 10 // 100))},
                 "s07": {"simulations": max(1, -(-ops * 7 // 100))},
                 "u25": {"upper": 0.25}, "u20": {"upper": 0.2},
+                "u50": {"upper": 0.5}, "u60": {"upper": 0.6},
                 "g05": {"gap": 0.05}, "g05s600": {"gap": 0.05, "simulations": 600},
                 "cnn": {"engine": "cnn"}}
     return {"i050": {"improve": 0.5}, "i075": {"improve": 0.75}, "i100": {},
             "i150": {"improve": 1.5}, "nostart": {"greedy_from": 1000},
+            "u50": {"upper": 0.5},
             "cnn": {"engine": "cnn"}, "l2": {"engine": "guarded"}}
 
 
