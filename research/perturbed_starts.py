@@ -10,7 +10,8 @@ plan then measured by whole-plan rollouts.
 of each calibration assembly (``CALIBRATION``: none of the evaluated ones) is rolled out under the
 shipped cell's errors, errors carried; every step that succeeds records where its moving parts came
 to rest: the distance off their goal as a fraction of the step's tolerance radius (``pos_tol`` of
-the moving extent) and the angle. Written to ``perturbed_starts.offsets.json``.
+the moving extent) and the angle. Written to ``rap/data/rest_offsets.json`` (shipped since the
+eighth session: ``rap.execution.perturbed``).
 
 **plans**: per evaluated assembly (``TIGHT``, choice_breadth's eight tight fits), every operation of
 the AND/OR graph scored twice, 100 trials each:
@@ -42,7 +43,6 @@ import argparse
 import json
 import math
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -55,15 +55,15 @@ CALIBRATION = ["cells/stack.json", "cells/arch.json", "cells/arch-centring.json"
                "cells/side-peg.json", "grid.json", "mixed-square.json", "triangles.json",
                "unseen/basketweave.json", "unseen/c-shapes-s100.json", "unseen/fan-s100.json",
                "unseen/hub-s101.json", "unseen/polyomino-s100.json"]
-OFFSETS = ROOT / "research" / "perturbed_starts.offsets.json"
+OFFSETS = ROOT / "rap" / "data" / "rest_offsets.json"  # rap.execution.perturbed.REST_OFFSETS
 REMEASURE_SEED, REMEASURE = 1_000_003, 400
 
 
-def _path(name: str) -> Path:
+def assembly_path(name: str) -> Path:
     return Path(name) if Path(name).is_file() else ROOT / "assemblies" / name
 
 
-def _cell_options(asm):
+def cell_options(asm):
     from rap.commands._rollouts import cell_errors, mm_per_unit
     from rap.robot.cell import Cell
 
@@ -116,10 +116,10 @@ def offsets_command(names: list[str], rollouts: int) -> None:
     rows, per = [], {}
     try:
         for name in names:
-            asm = load_assembly(_path(name))
+            asm = load_assembly(assembly_path(name))
             problem = PlanningProblem(asm, SimParams(), 0)
             found = plan(problem, model=model, simulator=sim, cache=ScoreCache())
-            errors, mmu = _cell_options(asm)
+            errors, mmu = cell_options(asm)
             got = record_offsets(asm, [s.to_operation() for s in found.steps], problem.params,
                                  errors, mmu, rollouts)
             per[asm.name] = len(got)
@@ -136,59 +136,22 @@ def offsets_command(names: list[str], rollouts: int) -> None:
 
 # -- perturbed-start scores ------------------------------------------------------------------------
 
-def _part_extent(asm, part: str, direction) -> float:
-    from rap.sim.placement import frame_axes
-
-    d, n = frame_axes(direction)
-    pts = asm.part(part).float_outer()
-    us = [x * d[0] + y * d[1] for x, y in pts]
-    ws = [x * n[0] + y * n[1] for x, y in pts]
-    return max(max(us) - min(us), max(ws) - min(ws))
-
-
 def perturbed_score(asm, op, params, errors, mm_per_unit: float, offsets: np.ndarray,
                     seed: int) -> int:
-    """Successes of ``params.trials`` perturbed-start trials of ``op`` (module doc)."""
-    from rap.execution import rollout as ro
-    from rap.sim.layouts import TrialLayout
-    from rap.sim.shapes import area_centroid, assembly_pieces
-    from rap.sim.simulator import build_scene, run_trials
+    """Successes of ``params.trials`` perturbed-start trials of ``op``
+    (``rap.execution.perturbed.perturbed_successes``, its home since the eighth session)."""
+    from rap.execution.perturbed import perturbed_successes
 
-    pieces = assembly_pieces(asm)
-    layouts, rngs = [], []
-    for t in range(params.trials):
-        rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(t,)))
-        poses = {}
-        for q in sorted(op.fixed):
-            frac, ang = offsets[rng.integers(len(offsets))]
-            phi = rng.uniform(0.0, 2.0 * math.pi)
-            r = frac * params.pos_tol * _part_extent(asm, q, op.direction)
-            _, cx, cy = area_centroid(pieces[q])
-            poses[q] = ((cx, cy), (r * math.cos(phi), r * math.sin(phi)),
-                        float(ang) * (1.0 if rng.random() < 0.5 else -1.0))
-        grasp = errors.offsets(rng, op.direction, mm_per_unit)
-        layouts.append(TrialLayout(poses, grasp))
-        rngs.append(rng)
-    p = params if errors.force_noise else replace(params, eta=0.0)
-    settle = max(1, int(round(ro.SETTLE_S / (p.dt_s * p.control_substeps))))
-    scene = build_scene(asm, op, p, layouts=layouts)
-    info = run_trials(scene, p, None, record=len(layouts), trial_rngs=rngs, settle_steps=settle)
-    rec = info.recording[0]
-    wins = 0
-    for t in range(len(layouts)):
-        if info.outcome[t] == 1:
-            last = rec[t][~np.isnan(rec[t][:, 0])][-1]
-            wins += ro._within(ro._part_pose(last, scene, layouts[t].grasp), scene, p)
-    return int(wins)
+    return perturbed_successes(asm, op, params, errors, mm_per_unit, seed, offsets)
 
 
-def _perturbed_task(args):  # a worker process
+def perturbed_task(args):  # a worker process
     return perturbed_score(*args)
 
 
 # -- plans: each set of scores planned optimally, both plans measured ------------------------------
 
-def _scores(problem, ops, work: Path, tag: str, run) -> dict[str, float]:
+def cached_scores(problem, ops, work: Path, tag: str, run) -> dict[str, float]:
     """``{key: score}`` of ``ops`` (free ones 1), those missing from ``work/<assembly>.<tag>.json``
     computed by ``run(missing ops) -> successes`` and written there (a rerun resumes)."""
     path = work / f"{problem.assembly.name}.{problem.root_seed}.{tag}.json"
@@ -230,13 +193,13 @@ def evaluate(path: Path, pool, sim, offsets: np.ndarray, work: Path, seed: int =
     t0 = time.perf_counter()
     asm = load_assembly(path)
     problem = PlanningProblem(asm, SimParams(), seed)
-    errors, mmu = _cell_options(asm)
+    errors, mmu = cell_options(asm)
     graph = reachable(problem)
     ops = [op for c in graph.values() for op in c]
-    exact = _scores(problem, ops, work, "exact", lambda miss: [
+    exact = cached_scores(problem, ops, work, "exact", lambda miss: [
         c.successes for c in sim.simulate_many(problem, miss)])
-    pert = _scores(problem, ops, work, "perturbed", lambda miss: list(pool.map(
-        _perturbed_task, [(asm, op, problem.params, errors, mmu, offsets, problem.seed(op))
+    pert = cached_scores(problem, ops, work, "perturbed", lambda miss: list(pool.map(
+        perturbed_task, [(asm, op, problem.params, errors, mmu, offsets, problem.seed(op))
                           for op in miss], chunksize=4)))
     t_scores = time.perf_counter() - t0
     plans = {"exact": best_sequence(problem, graph, exact),
@@ -271,7 +234,7 @@ def plans_command(names: list[str], jsonl: Path | None, work: Path, seed: int = 
     try:
         with ProcessPoolExecutor(2) as pool:
             for name in names:
-                row = evaluate(_path(name), pool, sim, offsets, work, seed)
+                row = evaluate(assembly_path(name), pool, sim, offsets, work, seed)
                 rows.append(row)
                 print(json.dumps(row), flush=True)
                 if jsonl:

@@ -220,7 +220,11 @@ def sequence_lines(result) -> list[str]:
     if len(seq.candidates) > 1:
         others = [c for c in seq.candidates if not c["chosen"]]
         best = max(c["rate"] for c in others)
-        lines.append(f"chosen by sequence success among {len(seq.candidates)} plans of the search "
+        pert = sum(bool(c.get("perturbed_starts")) for c in seq.candidates)
+        whose = ("plans of the search" if not pert else
+                 f"plans (the search's {len(seq.candidates) - pert} and the best on perturbed-start "
+                 f"scores: {result.stats.get('perturbed_simulated', '?')} operations simulated)")
+        lines.append(f"chosen by sequence success among {len(seq.candidates)} {whose} "
                      + ("(its best product)" if seq.candidates[0]["chosen"] else
                         f"(the best product measured {seq.candidates[0]['rate']:.3f})")
                      + f"; the best other measured {best:.3f}")

@@ -53,16 +53,17 @@ def rollout_runner(address: str | None, workers: int | None, on_chunk=None):
 
 def execution_options(execution, assembly, method: str, options: dict):
     """``(ExecutionOptions or None, the planner's options)`` for ``rap-farm plan``: ``execution``
-    is ``(cell file, candidates)`` or None (``--no-rollouts``); the search gets ``alternatives``
-    = candidates."""
+    is ``(cell file, candidates, perturbed)`` or None (``--no-rollouts``); the search gets
+    ``alternatives`` = candidates, and ``perturbed`` offers the choice the best plan on
+    perturbed-start scores (``ExecutionOptions.perturbed``)."""
     if execution is None:
         return None, options
     from rap.plan.execution import ExecutionOptions
     from rap.robot.cell import load_cell
 
-    cell_file, candidates = execution
+    cell_file, candidates, perturbed = execution
     cell = load_cell(cell_file)
     if method == "search" and candidates and options.get("alternatives") is None:
         options = {**options, "alternatives": int(candidates)}
-    return ExecutionOptions(errors=cell_errors(cell), mm_per_unit=mm_per_unit(cell, assembly)), \
-        options
+    return ExecutionOptions(errors=cell_errors(cell), mm_per_unit=mm_per_unit(cell, assembly),
+                            perturbed=bool(perturbed)), options

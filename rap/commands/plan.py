@@ -153,6 +153,9 @@ def plan_command(
                                   "choose among the search's best plans by it."),
     candidates: int = typer.Option(3, "--candidates", min=0, max=20, help="Search: plans besides "
                                    "its best that the rollouts compare (0: the best only)."),
+    perturbed: bool = typer.Option(False, "--perturbed-candidate", help="Search, here: the "
+                                   "rollouts also compare the best plan on perturbed-start scores "
+                                   "(every operation simulated once more; up to 3,000)."),
 ):
     """Plan a robust assembly sequence and print it (step, parts, direction, score, source)."""
     from rap.commands._console import console as make_console
@@ -177,7 +180,11 @@ def plan_command(
     if server is not None:
         _check_server_settings(settings, options)
     settings["constraints"] = cell
-    settings["execution"] = (cell_file, candidates) if rollouts else None
+    settings["execution"] = (cell_file, candidates, perturbed) if rollouts else None
+    if perturbed and (not rollouts or server or address or os.environ.get("RAY_ADDRESS")
+                      and not no_ray or method != "search"):
+        raise InputError("--perturbed-candidate: the search with rollouts here only (not with "
+                         "--no-rollouts, --server, --address or another method)")
     # a transient progress line on stderr (a terminal only) from here to the table
     with activity(f"planning {Path(assembly).name}", err) as progress:
         progress.update("reading the assembly")
@@ -330,7 +337,7 @@ def _plan_here(asm, method, params, root_seed, space, model_path, cache_path, wo
                options: dict | None = None, constraints=None, progress=None, execution=None):
     """Plan in this process; simulation batches over ``workers`` forked processes; ``options``:
     ``make_planner``'s (None: the default); ``progress``: an ``Activity`` told what happens;
-    ``execution``: ``(cell file, candidates)``, the rollouts (``rap.commands._rollouts``)."""
+    ``execution``: the rollouts' ``(cell file, candidates, perturbed)`` (``commands._rollouts``)."""
     from rap.commands._progress import activity
     from rap.plan.scoring.cache import ScoreCache
     from rap.plan.methods import make_planner

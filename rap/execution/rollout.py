@@ -48,7 +48,8 @@ from rap.sim.layouts import Pose, TrialLayout, compose_poses
 from rap.sim.params import SimParams
 from rap.sim.simulator import build_scene, run_trials
 
-__all__ = ["RolloutPlan", "ChunkOutcome", "CHUNK", "chunks", "run_chunk", "step_rng"]
+__all__ = ["RolloutPlan", "ChunkOutcome", "CHUNK", "SETTLE_S", "chunks", "run_chunk", "step_rng",
+           "part_pose", "within_tolerance"]
 
 SETTLE_S = 2.0  # a step that succeeds goes on under control this long: where its parts come to rest
 CHUNK = 25  # rollouts per chunk: the unit of parallel work (fixed, so results do not depend on it)
@@ -96,7 +97,7 @@ def step_rng(root_seed: int, index: int, step: int) -> np.random.Generator:
                                                         spawn_key=(int(index), int(step))))
 
 
-def _part_pose(rec_pose, scene, grasp) -> Pose:
+def part_pose(rec_pose, scene, grasp) -> Pose:
     """Where the parts of a decided trial ended (``Pose`` about their goal centroid), from the
     body's recorded pose and the grasp they rode it by."""
     x, y, ang = rec_pose
@@ -143,7 +144,10 @@ def _landed(pivot: tuple[float, float], grasp) -> Pose:
     return pivot, (grasp[0], grasp[1]), float(grasp[2])
 
 
-def _within(pose: Pose, scene, params: SimParams, radius: float | None = None) -> bool:
+def within_tolerance(pose: Pose, scene, params: SimParams, radius: float | None = None) -> bool:
+    """Whether parts at ``pose`` (``part_pose``) rest within the success tolerance of their goal:
+    ``pos_tol`` of the scene's moving extent (or ``radius``, assembly units) and
+    ``angle_tol_rad``."""
     (ox, oy), ang = pose[1], pose[2]
     tol = params.pos_tol * scene.moving_extent / scene.scale if radius is None else radius
     ang = (ang + math.pi) % (2 * math.pi) - math.pi
@@ -181,7 +185,7 @@ def run_chunk(assembly: Assembly, plan: RolloutPlan, root_seed: int, first: int,
             pivot, radius = _free_landing(assembly, op, params)
             for j, g in zip(alive, grasps):
                 pose = _landed(pivot, g)
-                if not _within(pose, None, params, radius):
+                if not within_tolerance(pose, None, params, radius):
                     failed[j] = k
                     continue
                 survivors.append(j)
@@ -200,8 +204,8 @@ def run_chunk(assembly: Assembly, plan: RolloutPlan, root_seed: int, first: int,
             pose = None
             if info.outcome[t] == 1:
                 last = rec[t][~np.isnan(rec[t][:, 0])][-1]  # at rest: after its settling
-                pose = _part_pose(last, scene, grasps[t])
-            if pose is None or not _within(pose, scene, params):
+                pose = part_pose(last, scene, grasps[t])
+            if pose is None or not within_tolerance(pose, scene, params):
                 failed[j] = k
                 continue
             survivors.append(j)

@@ -128,6 +128,22 @@ def plan(assembly, method="search", *, model=None, constraints=None,
             simulator.close()
 
 
+def _with_perturbed(problem, result, candidates, runner, execution) -> tuple:
+    """``candidates`` and, unless it is one of them or the search's plan, the best plan on
+    perturbed-start scores (``rap.plan.execution.perturbed_candidate``)."""
+    from rap.plan.execution import perturbed_candidate
+
+    def steps(p):
+        return tuple((s.moving, s.fixed, s.direction) for s in p.steps)
+
+    extra = perturbed_candidate(problem, result, runner, execution)
+    if extra is not None:  # the run's counters: its cost
+        result.stats["perturbed_simulated"] = extra.stats["perturbed_simulated"]
+    if extra is None or steps(extra) in {steps(p) for p in (result, *candidates)}:
+        return tuple(candidates)
+    return (*candidates, extra)
+
+
 def _solve(planner, problem, scorer, execution, runner) -> "PlanResult":
     """``planner.solve``; with ``execution``, the plan measured (and chosen among the planner's
     alternatives) by rollouts (``rap.plan.execution``)."""
@@ -136,13 +152,16 @@ def _solve(planner, problem, scorer, execution, runner) -> "PlanResult":
     from rap.plan.execution import execute_report
     from rap.plan.search.planner import SearchPlanner
 
-    if isinstance(planner, SearchPlanner) and planner.alternatives:  # it offers alternatives
-        outcome = planner.search(problem, scorer)
+    if isinstance(planner, SearchPlanner) and (planner.alternatives or execution.perturbed):
+        outcome = planner.search(problem, scorer)  # it offers alternatives
         result, candidates = outcome.plan, outcome.alternatives
     else:
         result, candidates = planner.solve(problem, scorer), ()
     if not hasattr(runner, "run_rollouts"):
         runner = None
+    if execution.perturbed and isinstance(planner, SearchPlanner) and result.found:
+        candidates = _with_perturbed(problem, result, candidates, runner or scorer.simulator,
+                                     execution)
 
     def finish(alt):
         from dataclasses import replace

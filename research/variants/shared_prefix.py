@@ -48,7 +48,7 @@ def _advance(assembly, plan, params, settle, free: bool, k: int, root_seed: int,
     if free:
         pivot, radius = ro._free_landing(assembly, op, params)
         landed = [ro._landed(pivot, g) for g in grasps]
-        ok = [ro._within(pose, None, params, radius) for pose in landed]
+        ok = [ro.within_tolerance(pose, None, params, radius) for pose in landed]
     else:
         layouts = [TrialLayout({p: poses[j][p] for p in op.moving | op.fixed if p in poses[j]}, g)
                    for j, g in zip(alive, grasps)]
@@ -56,9 +56,9 @@ def _advance(assembly, plan, params, settle, free: bool, k: int, root_seed: int,
         info = run_trials(scene, params, None, record=len(alive), trial_rngs=rngs,
                           settle_steps=settle)
         rec = info.recording[0]
-        landed = [ro._part_pose(rec[t][~np.isnan(rec[t][:, 0])][-1], scene, grasps[t])
+        landed = [ro.part_pose(rec[t][~np.isnan(rec[t][:, 0])][-1], scene, grasps[t])
                   if info.outcome[t] == 1 else None for t in range(len(alive))]
-        ok = [pose is not None and ro._within(pose, scene, params) for pose in landed]
+        ok = [pose is not None and ro.within_tolerance(pose, scene, params) for pose in landed]
     survivors = []
     for j, pose, good in zip(alive, landed, ok):
         if not good:

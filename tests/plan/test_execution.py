@@ -75,3 +75,46 @@ def test_the_default_chooses_by_sequence_success_and_never_worse_than_the_produc
     assert doc["format"] == 3 and doc["sequence_success"]["rollouts"] >= 100
     assert all(s["execution"]["reached"] is not None for s in doc["steps"])
     assert PlanResult.from_json(doc).to_json() == doc
+
+
+def test_the_perturbed_candidate_is_the_best_plan_on_perturbed_start_scores(monkeypatch):
+    """The candidate is the optimal DP's plan on ``perturbed_successes`` of every operation that
+    is not free (the same counts on the workers as here), a complete plan in assembly order with
+    R unknown; past the operation limit there is none; ``plan`` offers it to the choice."""
+    from rap.execution.perturbed import perturbed_successes
+    from rap.io import load_assembly
+    from rap.plan import execution as ex
+    from rap.plan import plan
+    from rap.plan.dp import dp_choice
+    from rap.plan.graph import reachable
+    from rap.plan.report.result import is_assembly_order
+    from rap.plan.scoring.local_simulator import LocalSimulator
+
+    problem = PlanningProblem(load_assembly(ARCH), SimParams(trials=20), 5)
+    opts = ExecutionOptions(mm_per_unit=2.0, tolerances=False, perturbed=True)
+    template = PlanResult(PlanStatus.FOUND, "search", "arch", robustness=0.5)
+    here = ex.perturbed_candidate(problem, template, None, opts)
+    sim = LocalSimulator(processes=2)
+    try:
+        on_workers = ex.perturbed_candidate(problem, template, sim, opts)
+        planned = plan(problem, simulator=sim, execution=opts, alternatives=1)
+    finally:
+        sim.close()
+    assert here is not None and here.steps == on_workers.steps and here.robustness is None
+    assert here.stats["perturbed_starts"] and here.stats["perturbed_simulated"] > 0
+    assert is_assembly_order(here.steps, problem.assembly.ids) is None
+    graph = reachable(problem)
+    score = {problem.key(op): 1.0 if problem.is_free(op) else perturbed_successes(
+        problem.assembly, op, problem.params, opts.errors, 2.0, problem.seed(op)) / 20
+        for ops in graph.values() for op in ops}
+    best, _ = dp_choice(graph, {s: [score[problem.key(op)] for op in ops]
+                                for s, ops in graph.items()})
+    product = 1.0
+    for s in here.steps:
+        product *= score[problem.key(s.to_operation())]
+    assert product == best[problem.whole]  # the DP's best product of perturbed scores
+    flagged = [c for c in planned.sequence.candidates if c.get("perturbed_starts")]
+    assert len(planned.sequence.candidates) in (2, 3) and len(flagged) <= 1
+    assert len(flagged) == len(planned.sequence.candidates) - 2  # offered unless a duplicate
+    monkeypatch.setattr(ex, "PERTURBED_MAX_OPERATIONS", 3)
+    assert ex.perturbed_candidate(problem, template, None, opts) is None

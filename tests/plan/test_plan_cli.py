@@ -56,6 +56,8 @@ def test_plan_writes_the_documented_json_and_a_storyboard(tmp_path):
     (("{row3}", "--method", "best"), "--method"),
     (("{row3}", "--picture", "x.gif"), "--picture"),
     (("{row3}", "--model", "nope.pt"), "nope.pt"),
+    (("{row3}", "--perturbed-candidate", "--no-rollouts"), "--perturbed-candidate"),
+    (("{row3}", "--perturbed-candidate", "--method", "sim"), "--perturbed-candidate"),
 ])
 def test_invalid_input_exits_2_with_one_line(tmp_path, args, needle):
     src = write(ROW3, tmp_path / "row3.json")

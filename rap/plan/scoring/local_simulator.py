@@ -85,6 +85,12 @@ def _tolerance_task(args) -> float:  # runs in a worker process
     return tolerance(*args)
 
 
+def _perturbed_task(args) -> int:  # runs in a worker process
+    from rap.execution.perturbed import perturbed_successes
+
+    return perturbed_successes(*args)
+
+
 def _exit_with(parent: int) -> None:  # a worker's daemon thread
     """End this worker once process ``parent``, which forked it, has gone without stopping it
     (SIGKILL, or a signal between a fork and the pool's record of it): an orphan would otherwise
@@ -249,6 +255,13 @@ class LocalSimulator:
         from rap.execution.tolerance import tolerance
 
         return self._mapped(_tolerance_task, list(jobs), len(jobs) >= 2, tolerance)
+
+    def run_perturbed(self, jobs: Sequence[tuple]) -> list[int]:
+        """``rap.execution.perturbed.perturbed_successes(*job)`` for each job, over the worker
+        processes when there are two or more (``PerturbedRunner``); results in order."""
+        from rap.execution.perturbed import perturbed_successes
+
+        return self._mapped(_perturbed_task, list(jobs), len(jobs) >= 2, perturbed_successes)
 
     def _run(self, jobs: list) -> list[CachedScore]:
         return self._mapped(_simulate_task, jobs, len(jobs) >= self.min_batch,
