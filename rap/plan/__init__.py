@@ -56,7 +56,8 @@ def plan(assembly, method="search", *, model=None, constraints=None,
         success under the cell's errors, each step's success once reached, clearance and
         tolerance; with a planner that offers alternatives (the search's option
         ``alternatives``), the plan chosen among them by measured sequence success
-        (``rap.plan.execution``).
+        (``rap.plan.execution``; ``ExecutionOptions.perturbed``: the best plan on
+        perturbed-start scores among them too).
     rollouts : a ``rap.execution.sequence.RolloutRunner`` (None: the simulator backend when it
         runs rollouts, else this process).
     **options : the method's options (``rap-farm plan --help``; e.g. ``simulations=0``).
