@@ -35,6 +35,23 @@ DEFAULT = ["cells/stack.json", "cells/side-peg.json", "cells/arch.json", "cells/
 SEED, REMEASURE_SEED = 2_000_003, 3_000_017
 
 
+def small_case(name: str, cell):
+    """``(assembly, problem, options)`` of one assembly of these tables: ``name`` a path or under
+    assemblies/; the default problem at the default root seed; the rollouts under ``cell``'s
+    errors, tolerances off."""
+    from rap.commands._rollouts import cell_errors, mm_per_unit
+    from rap.io import load_assembly
+    from rap.plan.execution import ExecutionOptions
+    from rap.plan.problem import PlanningProblem
+    from rap.seeds import DEFAULT_ROOT_SEED
+    from rap.sim.params import SimParams
+
+    asm = load_assembly(Path(name) if Path(name).is_file() else ROOT / "assemblies" / name)
+    opts = ExecutionOptions(errors=cell_errors(cell), mm_per_unit=mm_per_unit(cell, asm),
+                            tolerances=False)
+    return asm, PlanningProblem(asm, SimParams(), DEFAULT_ROOT_SEED), opts
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("assemblies", nargs="*")
@@ -44,20 +61,15 @@ def main() -> None:
     ap.add_argument("--remeasure", type=int, default=2000, help="rollouts of each re-measurement")
     ap.add_argument("--jsonl", type=Path, help="append one JSON line per assembly")
     args = ap.parse_args()
-    from rap.commands._rollouts import cell_errors, mm_per_unit
     from rap.execution.sequence import measure
-    from rap.io import load_assembly
     from rap.plan import plan
-    from rap.plan.execution import ExecutionOptions, rollout_plan
-    from rap.plan.problem import PlanningProblem
+    from rap.plan.execution import rollout_plan
     from rap.plan.scoring.cache import ScoreCache
     from rap.plan.scoring.local_simulator import LocalSimulator
     from rap.plan.scoring.scorer import Scorer
     from rap.plan.search.planner import SearchPlanner
     from rap.model.inference.operations import SHIPPED_MODEL, OperationPredictor
     from rap.robot.cell import Cell
-    from rap.seeds import DEFAULT_ROOT_SEED
-    from rap.sim.params import SimParams
 
     cell = Cell()
     sim = LocalSimulator(processes=2)
@@ -68,11 +80,7 @@ def main() -> None:
     try:
         for name in args.assemblies or DEFAULT:
             t0 = time.perf_counter()
-            path = Path(name) if Path(name).is_file() else ROOT / "assemblies" / name
-            asm = load_assembly(path)
-            opts = ExecutionOptions(errors=cell_errors(cell), mm_per_unit=mm_per_unit(cell, asm),
-                                    tolerances=False)
-            problem = PlanningProblem(asm, SimParams(), DEFAULT_ROOT_SEED)
+            asm, problem, opts = small_case(name, cell)
             cache = ScoreCache()
             outcome = SearchPlanner(alternatives=1_000_000).search(
                 problem, Scorer(sim, model, cache))

@@ -27,7 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.best_sequence import DEFAULT, REMEASURE_SEED  # noqa: E402
+from benchmarks.best_sequence import DEFAULT, REMEASURE_SEED, small_case  # noqa: E402
 
 
 def main() -> None:
@@ -39,18 +39,13 @@ def main() -> None:
     args = ap.parse_args()
     from dataclasses import replace
 
-    from rap.commands._rollouts import cell_errors, mm_per_unit
     from rap.execution.sequence import measure
-    from rap.io import load_assembly
     from rap.model.inference.operations import SHIPPED_MODEL, OperationPredictor
     from rap.plan import plan
-    from rap.plan.execution import ExecutionOptions, rollout_plan
-    from rap.plan.problem import PlanningProblem
+    from rap.plan.execution import rollout_plan
     from rap.plan.scoring.cache import ScoreCache
     from rap.plan.scoring.local_simulator import LocalSimulator
     from rap.robot.cell import Cell
-    from rap.seeds import DEFAULT_ROOT_SEED
-    from rap.sim.params import SimParams
 
     best = {}
     if args.best:
@@ -65,11 +60,7 @@ def main() -> None:
     print("|---|---:|---|---|---|---:|---:|")
     try:
         for name in args.assemblies or DEFAULT:
-            path = Path(name) if Path(name).is_file() else ROOT / "assemblies" / name
-            asm = load_assembly(path)
-            opts = ExecutionOptions(errors=cell_errors(cell), mm_per_unit=mm_per_unit(cell, asm),
-                                    tolerances=False)
-            problem = PlanningProblem(asm, SimParams(), DEFAULT_ROOT_SEED)
+            asm, problem, opts = small_case(name, cell)
             t0 = time.perf_counter()
             default = plan(problem, simulator=sim, cache=ScoreCache(), model=model,
                            execution=opts, alternatives=3)

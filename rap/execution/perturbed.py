@@ -83,16 +83,18 @@ def perturbed_successes(assembly: Assembly, op: Operation, params: SimParams, er
 
     offsets = rest_offsets() if offsets is None else offsets
     pieces = assembly_pieces(assembly)
+    fixed = sorted(op.fixed)  # per part, once: its tolerance radius and its centroid
+    radius = {q: params.pos_tol * _part_extent(assembly, q, op.direction) for q in fixed}
+    centroid = {q: area_centroid(pieces[q])[1:] for q in fixed}
     layouts, rngs = [], []
     for t in range(params.trials):
         rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(t,)))
         poses = {}
-        for q in sorted(op.fixed):
+        for q in fixed:
             frac, ang = offsets[rng.integers(len(offsets))]
             phi = rng.uniform(0.0, 2.0 * math.pi)
-            r = frac * params.pos_tol * _part_extent(assembly, q, op.direction)
-            _, cx, cy = area_centroid(pieces[q])
-            poses[q] = ((cx, cy), (r * math.cos(phi), r * math.sin(phi)),
+            r = frac * radius[q]
+            poses[q] = (centroid[q], (r * math.cos(phi), r * math.sin(phi)),
                         float(ang) * (1.0 if rng.random() < 0.5 else -1.0))
         grasp = errors.offsets(rng, op.direction, mm_per_unit)
         layouts.append(TrialLayout(poses, grasp))
