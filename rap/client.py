@@ -57,14 +57,15 @@ def exact_json(value: Any) -> str:
 
 def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
               options: dict | None = None, constraints=None, loaded=None,
-              rollouts: bool = True) -> bytes:
+              rollouts: bool = True, perturbed: bool = False) -> bytes:
     """The ``POST /plan`` body for an assembly file (already checked by ``load_assembly``) or a
     drawing (.dxf, .svg: imported with the default options, as ``load_assembly`` does, unless
     ``loaded``, the ``Assembly`` the caller already read from it, is given: a drawing is
     imported once a command);
     ``options``: the method's planner options (``rap.serve.api.PLANNER_OPTIONS``), those not None;
     ``constraints``: the cell's ``rap.plan.cell.constraints.CellConstraints`` (sent when active);
-    ``rollouts``: False asks the service not to measure the plan by rollouts."""
+    ``rollouts``: False asks the service not to measure the plan by rollouts; ``perturbed``:
+    True asks for the perturbed candidate (``perturbed_candidate``)."""
     path = Path(assembly_path)
     if path.suffix.lower() in (".dxf", ".svg"):  # a drawing: sent as the assembly it imports to
         from rap.io import assembly_to_json, load_assembly
@@ -87,6 +88,8 @@ def plan_body(assembly_path: str | Path, method: str, seed: int | None = None,
         body["constraints"] = constraints.to_json()
     if not rollouts:
         body["rollouts"] = False
+    if perturbed:
+        body["perturbed_candidate"] = True
     return exact_json(body).encode("utf-8")
 
 

@@ -206,6 +206,13 @@ def _executed(step) -> tuple[str]:
     return (f"[red]{tol}[/]" if e.below_budget else tol,)
 
 
+#: what became of ``--perturbed-candidate`` when it is not among the candidates (the search's
+#: ``perturbed_outcome``, ``rap.plan._with_perturbed``)
+_PERTURBED_FATE = {"duplicate": "is one of the search's own",
+                   "none": "does not exist: no sequence succeeded from perturbed starts",
+                   "too large": "was not sought: the graph has over {limit:,} operations"}
+
+
 def sequence_lines(result) -> list[str]:
     """What the rollouts measured (plan format 3): the sequence success beside R, how the plan
     was chosen, and the steps whose tolerance is below the cell's error budget."""
@@ -228,6 +235,13 @@ def sequence_lines(result) -> list[str]:
                      + ("(its best product)" if seq.candidates[0]["chosen"] else
                         f"(the best product measured {seq.candidates[0]['rate']:.3f})")
                      + f"; the best other measured {best:.3f}")
+    fate = _PERTURBED_FATE.get(result.stats.get("perturbed_outcome"))
+    if fate:
+        from rap.plan.execution import PERTURBED_MAX_OPERATIONS
+
+        fate = fate.format(limit=PERTURBED_MAX_OPERATIONS)
+        lines.append(f"the best plan on perturbed-start scores {fate} "
+                     f"({result.stats.get('perturbed_simulated', 0)} operations simulated)")
     flagged = [i for i, s in enumerate(result.steps, 1)
                if s.execution is not None and s.execution.below_budget]
     if flagged:

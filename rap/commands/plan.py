@@ -153,7 +153,7 @@ def plan_command(
                                   "choose among the search's best plans by it."),
     candidates: int = typer.Option(3, "--candidates", min=0, max=20, help="Search: plans besides "
                                    "its best that the rollouts compare (0: the best only)."),
-    perturbed: bool = typer.Option(False, "--perturbed-candidate", help="Search, here: the "
+    perturbed: bool = typer.Option(False, "--perturbed-candidate", help="Search: the "
                                    "rollouts also compare the best plan on perturbed-start scores "
                                    "(every operation simulated once more; up to 3,000)."),
 ):
@@ -181,10 +181,9 @@ def plan_command(
         _check_server_settings(settings, options)
     settings["constraints"] = cell
     settings["execution"] = (cell_file, candidates, perturbed) if rollouts else None
-    if perturbed and (not rollouts or server or address or os.environ.get("RAY_ADDRESS")
-                      and not no_ray or method != "search"):
-        raise InputError("--perturbed-candidate: the search with rollouts here only (not with "
-                         "--no-rollouts, --server, --address or another method)")
+    if perturbed and (not rollouts or method != "search"):
+        raise InputError("--perturbed-candidate: the search with rollouts only (not with "
+                         "--no-rollouts or another method)")
     # a transient progress line on stderr (a terminal only) from here to the table
     with activity(f"planning {Path(assembly).name}", err) as progress:
         progress.update("reading the assembly")
@@ -193,7 +192,8 @@ def plan_command(
         check_cell(cell, [asm])
         if server is not None:
             result, on_ray = _plan_by_service(assembly, asm, method, seed, options, server,
-                                              token, progress, cell, rollouts), False
+                                              token, progress, cell, rollouts,
+                                              perturbed), False
             settings["cache"] = None
         else:
             root_seed = DEFAULT_ROOT_SEED if seed is None else int(seed)
@@ -242,7 +242,7 @@ def _check_server_settings(settings: dict, options: dict) -> None:
 
 
 def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, server: str, token,
-                     console, constraints=None, rollouts: bool = True):
+                     console, constraints=None, rollouts: bool = True, perturbed=False):
     """Step 2, with ``--server``: the service plans; the method's options travel with the
     request. The client's errors name the parameter ``server``: here, the flag. ``console``:
     anything with ``status(text)`` (the command's progress ``Activity``, or a rich console)."""
@@ -252,7 +252,7 @@ def _plan_by_service(assembly: Path, asm, method: str, seed, options: dict, serv
 
     sent = {o.name: options[o.name] for o in METHODS[method].declared() if o.service and o.cli}
     body = plan_body(assembly, method, seed, sent, constraints=constraints, loaded=asm,
-                     rollouts=rollouts)
+                     rollouts=rollouts, perturbed=perturbed)
     with flags("server"), console.status(f"planning {asm.name} with {method} at {server} ..."):
         try:
             doc, details = post_plan(server, body, token=token or os.environ.get("RAP_FARM_TOKEN"))
@@ -296,9 +296,9 @@ def _plan_with_workers(asm, method: str, root_seed: int, options: dict, settings
     planner_options = {k: v for k, v in options.items() if k != "samples"}
     req = service.PlanRequest(asm, method, params, root_seed, space,
                               options["samples"] or RandomOptions().samples,
-                              planner_options=planner_options,
-                              constraints=settings.get("constraints"),
-                              rollouts=settings.get("execution") is not None)
+                              planner_options=planner_options, constraints=settings.get("constraints"),
+                              rollouts=settings.get("execution") is not None,
+                              perturbed=bool((settings.get("execution") or (0, 0, 0))[2]))
     with console.status(f"planning {asm.name} with {method} on Ray at {address} ..."):
         result = service.run_plan(req, model_path=model_path, address=address, workers=workers,
                                   cache_path=str(cache_path) if cache_path else None)

@@ -29,6 +29,7 @@ R's best; docs/ROBOT.md, "The best of all sequences"). Cost: one operation's lab
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import math
 from dataclasses import replace
@@ -42,7 +43,8 @@ from rap.execution.error_model import ErrorModel
 from rap.operation import Operation
 from rap.sim.params import SimParams
 
-__all__ = ["REST_OFFSETS", "rest_offsets", "perturbed_successes", "PerturbedRunner"]
+__all__ = ["REST_OFFSETS", "rest_offsets", "perturbed_successes", "perturbed_key",
+           "PerturbedRunner"]
 
 REST_OFFSETS = Path(__file__).resolve().parents[1] / "data" / "rest_offsets.json"
 
@@ -59,6 +61,23 @@ class PerturbedRunner(Protocol):
 def rest_offsets(path: str | Path = REST_OFFSETS) -> np.ndarray:
     """The recorded rest offsets, float64 [N, 2]: (distance / tolerance radius, angle in rad)."""
     return np.array(json.loads(Path(path).read_text())["offsets"], dtype=float)
+
+
+@functools.lru_cache(maxsize=4)
+def _file_hash(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
+def perturbed_key(key: str, errors: ErrorModel, mm_per_unit: float) -> str:
+    """The score cache's key (``rap.plan.scoring.cache``) of an operation's perturbed-start count:
+    its exact-start key (``PlanningProblem.key``: geometry, operation, parameters, root seed) with
+    what else the count depends on (the error model, the scale, the shipped rest offsets, the
+    settle time), so it never meets an exact-start score. O(1) after the offsets' first hash."""
+    from rap.execution.rollout import SETTLE_S
+
+    extra = json.dumps([errors.to_dict(), float(mm_per_unit), _file_hash(REST_OFFSETS), SETTLE_S],
+                       sort_keys=True)
+    return f"{key}:perturbed:{hashlib.sha256(extra.encode()).hexdigest()[:16]}"
 
 
 def _part_extent(assembly: Assembly, part: str, direction) -> float:

@@ -8,8 +8,9 @@ are built inside the worker by the simulator; nothing live crosses the wire. A t
 ``BatchResult``: one row per operation in the dataset schema (``rap.dataset.SCHEMA``) plus timings.
 A ``RolloutTask`` (chunks of whole-plan rollouts, ``rap.execution``) goes through the same actors
 and the same retries; its outcomes come back in the result's ``extra["chunks"]``. So does a
-``ToleranceTask`` (steps' simulated tolerances, ``rap.execution.tolerance``), in
-``extra["tolerances"]``.
+``StepTask`` (one of ``STEP_FUNCTIONS`` per job: steps' simulated tolerances,
+``rap.execution.tolerance``, or operations' perturbed-start successes,
+``rap.execution.perturbed``), in ``extra["results"]``.
 
 The simulator and renderer are looked up by import path (``Backend``), so the same actor serves the
 real physics (the default) and anything with the same signatures. The backend's warm-up (loading
@@ -37,7 +38,7 @@ from rap.operation import Operation
 from rap.labelling.rows import Backend, label_rows, resolve, rows_table
 from rap.farm.runtime import node_label
 
-__all__ = ["Backend", "SimTask", "RolloutTask", "ToleranceTask", "BatchResult", "SimWorker", "resolve", "pack",
+__all__ = ["Backend", "SimTask", "RolloutTask", "StepTask", "STEP_FUNCTIONS", "BatchResult", "SimWorker", "resolve", "pack",
            "unpack"]
 
 _ASSEMBLY_CACHE = 32  # assemblies kept per worker (LRU, by geometry hash)
@@ -78,21 +79,33 @@ class RolloutTask:
         return tuple(f"rollouts {f}-{f + c - 1}" for f, c in self.work)
 
 
+#: what a ``StepTask`` may run per job, by name: ``(module, function)``, called with the task's
+#: assembly and then the job's arguments
+STEP_FUNCTIONS = {"tolerance": ("rap.execution.tolerance", "tolerance"),
+                  "perturbed": ("rap.execution.perturbed", "perturbed_successes")}
+
+
 @dataclass(frozen=True)
-class ToleranceTask:
-    """Steps' simulated tolerances (``rap.execution.tolerance.tolerance``) on one assembly: each
-    job is ``tolerance``'s arguments after the assembly; ``names`` names them (the retries')."""
+class StepTask:
+    """Jobs of one of ``STEP_FUNCTIONS`` (``function``) on one assembly: each job is the
+    function's arguments after the assembly; ``names`` names them (the retries')."""
 
     task_id: int
     assembly_name: str
     geometry_hash: str
     assembly_ref: list
+    function: str
     jobs: tuple[tuple, ...]
     names: tuple[str, ...]
 
+    def __post_init__(self):
+        if self.function not in STEP_FUNCTIONS:
+            raise ValueError(f"step task function {self.function!r}: one of "
+                             f"{', '.join(STEP_FUNCTIONS)}")
+
     @property
     def keys(self) -> tuple[str, ...]:
-        return tuple(f"tolerance {n}" for n in self.names)
+        return tuple(f"{self.function} {n}" for n in self.names)
 
 
 def pack(operation: Operation) -> bytes:
@@ -186,11 +199,11 @@ class SimWorker:
             self._assemblies.move_to_end(task.geometry_hash)
         return a
 
-    def run(self, task: SimTask | RolloutTask | ToleranceTask) -> BatchResult:
+    def run(self, task: SimTask | RolloutTask | StepTask) -> BatchResult:
         if isinstance(task, RolloutTask):
             return self._rollouts(task)
-        if isinstance(task, ToleranceTask):
-            return self._tolerances(task)
+        if isinstance(task, StepTask):
+            return self._steps(task)
         t0 = time.perf_counter()
         simulate, render = self._functions(task.images)
         assembly = self._assembly(task)
@@ -214,15 +227,17 @@ class SimWorker:
                            pid=self._pid, assembly=task.assembly_name, sim_s=dt, task_s=dt,
                            extra={"chunks": out})
 
-    def _tolerances(self, task: ToleranceTask) -> BatchResult:
-        """A ``ToleranceTask``'s tolerances in mm, in its jobs' order, in ``extra["tolerances"]``."""
-        from rap.execution.tolerance import tolerance
+    def _steps(self, task: StepTask) -> BatchResult:
+        """A ``StepTask``'s results, in its jobs' order, in ``extra["results"]``."""
+        import importlib
 
+        module, name = STEP_FUNCTIONS[task.function]
+        function = getattr(importlib.import_module(module), name)
         t0 = time.perf_counter()
         self._functions(False)
         assembly = self._assembly(task)
-        out = [tolerance(assembly, *job) for job in task.jobs]
+        out = [function(assembly, *job) for job in task.jobs]
         dt = time.perf_counter() - t0
         return BatchResult(task_id=task.task_id, table=rows_table([]), node=self._node,
                            pid=self._pid, assembly=task.assembly_name, sim_s=dt, task_s=dt,
-                           extra={"tolerances": out})
+                           extra={"results": out})

@@ -129,20 +129,25 @@ def plan(assembly, method="search", *, model=None, constraints=None,
             simulator.close()
 
 
-def _with_perturbed(problem, result, candidates, runner, execution) -> tuple:
+def _with_perturbed(problem, result, candidates, runner, execution, cache=None) -> tuple:
     """``candidates`` and, unless it is one of them or the search's plan, the best plan on
-    perturbed-start scores (``rap.plan.execution.perturbed_candidate``)."""
+    perturbed-start scores (``rap.plan.execution.perturbed_candidate``). The search's ``stats``
+    get what became of it (its cost and fate, for the summary line): ``perturbed_simulated``
+    (operations) and ``perturbed_outcome`` (``offered``, ``duplicate``, ``none``: no sequence
+    succeeds from perturbed starts, or ``too large``: past ``PERTURBED_MAX_OPERATIONS``).
+    ``cache``: the scorer's score cache, which keeps the perturbed-start counts too."""
     from rap.plan.execution import perturbed_candidate
 
     def steps(p):
         return tuple((s.moving, s.fixed, s.direction) for s in p.steps)
 
-    extra = perturbed_candidate(problem, result, runner, execution)
-    if extra is not None:  # the run's counters: its cost
-        result.stats["perturbed_simulated"] = extra.stats["perturbed_simulated"]
-    if extra is None or steps(extra) in {steps(p) for p in (result, *candidates)}:
-        return tuple(candidates)
-    return (*candidates, extra)
+    found = perturbed_candidate(problem, result, runner, execution, cache)
+    extra, simulated = found.plan, found.simulated
+    outcome = ("offered" if extra is not None else "too large" if found.too_large else "none")
+    if extra is not None and steps(extra) in {steps(p) for p in (result, *candidates)}:
+        extra, outcome = None, "duplicate"
+    result.stats.update(perturbed_simulated=simulated, perturbed_outcome=outcome)
+    return tuple(candidates) if extra is None else (*candidates, extra)
 
 
 def _solve(planner, problem, scorer, execution, runner) -> "PlanResult":
@@ -162,7 +167,7 @@ def _solve(planner, problem, scorer, execution, runner) -> "PlanResult":
         runner = None
     if execution.perturbed and isinstance(planner, SearchPlanner) and result.found:
         candidates = _with_perturbed(problem, result, candidates, runner or scorer.simulator,
-                                     execution)
+                                     execution, scorer.cache)
 
     def finish(alt):
         from dataclasses import replace

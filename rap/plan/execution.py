@@ -56,7 +56,7 @@ from rap.plan.report.result import PlanResult
 from rap.stats import rate
 
 __all__ = ["ExecutionOptions", "execute_report", "choose", "rollout_plan", "CHOICE_WAVES",
-           "perturbed_candidate", "PERTURBED_MAX_OPERATIONS"]
+           "perturbed_candidate", "PerturbedCandidate", "PERTURBED_MAX_OPERATIONS"]
 
 CHOICE_WAVES = (100, 200)  # rollouts of each candidate while choosing
 
@@ -83,14 +83,27 @@ class ExecutionOptions:
 PERTURBED_MAX_OPERATIONS = 3000
 
 
+@dataclass(frozen=True)
+class PerturbedCandidate:
+    """What ``perturbed_candidate`` found: ``plan`` (None past the operation limit,
+    ``too_large``, or where no sequence has a positive score) and ``simulated``, the operations
+    it simulated (those not in the cache)."""
+
+    plan: PlanResult | None
+    simulated: int
+    too_large: bool = False
+
+
 def perturbed_candidate(problem: PlanningProblem, template: PlanResult, runner,
-                        options: ExecutionOptions) -> PlanResult | None:
+                        options: ExecutionOptions, cache=None) -> PerturbedCandidate:
     """The best product of perturbed-start scores (``rap.execution.perturbed``) over the problem's
     AND/OR graph, as a plan for the choice: ``template`` (the search's plan) with its steps, R
-    unknown (simulated if chosen). None past ``PERTURBED_MAX_OPERATIONS`` operations or where no
-    sequence has a positive score. Every operation that is not free is simulated once from a
-    perturbed start (``runner.run_perturbed`` where the runner has workers, else here)."""
-    from rap.execution.perturbed import PerturbedRunner, perturbed_successes
+    unknown (simulated if chosen). Every operation that is not free is simulated once from a
+    perturbed start (``runner.run_perturbed`` where the runner has workers, else here), unless
+    ``cache`` (a ``ScoreCache``) holds its count (``rap.execution.perturbed.perturbed_key``); the
+    counts simulated are added to it. Nothing is simulated past ``PERTURBED_MAX_OPERATIONS``."""
+    from rap.execution.perturbed import PerturbedRunner, perturbed_key, perturbed_successes
+    from rap.plan.scoring.cache import CachedScore
     from rap.plan.dp import dp_choice, dp_tree
     from rap.plan.graph import TooLarge, assembly_order, reachable
     from rap.plan.report.result import PlanStep
@@ -98,26 +111,34 @@ def perturbed_candidate(problem: PlanningProblem, template: PlanResult, runner,
     try:
         graph = reachable(problem, PERTURBED_MAX_OPERATIONS)
     except TooLarge:
-        return None
+        return PerturbedCandidate(None, 0, too_large=True)
     asm, params = problem.assembly, problem.params
     todo = {}
     for ops in graph.values():
         for op in ops:
             if not problem.is_free(op):
                 todo.setdefault(problem.key(op), op)
-    jobs = [(asm, op, params, options.errors, options.mm_per_unit, problem.seed(op))
-            for op in todo.values()]
+    pkey = {k: perturbed_key(k, options.errors, options.mm_per_unit) for k in todo}
+    known = dict(zip(todo, cache.get_many(pkey[k] for k in todo))) if cache is not None else {}
+    score = {k: hit.score for k, hit in known.items() if hit is not None}
+    missing = [k for k in todo if k not in score]
+    jobs = [(asm, todo[k], params, options.errors, options.mm_per_unit, problem.seed(todo[k]))
+            for k in missing]
     wins = (runner.run_perturbed(jobs) if isinstance(runner, PerturbedRunner)
             else [perturbed_successes(*j) for j in jobs])
-    score = {k: w / params.trials for k, w in zip(todo, wins)}
+    score.update((k, w / params.trials) for k, w in zip(missing, wins))
+    if cache is not None:
+        cache.put_many((pkey[k], CachedScore(w / params.trials, int(w), params.trials))
+                       for k, w in zip(missing, wins))
     score_of = {s: [score.get(problem.key(op), 1.0) for op in ops] for s, ops in graph.items()}
     best, arg = dp_choice(graph, score_of)
     if not best.get(problem.whole, 0.0) > 0.0:
-        return None
+        return PerturbedCandidate(None, len(jobs))
     choice = {sub: PlanStep.of(op, "sim") for sub, (_, op) in
               dp_tree(graph, arg, problem.whole).items()}
-    return replace(template, steps=tuple(assembly_order(choice, problem.whole)), robustness=None,
-                   stats={"perturbed_starts": True, "perturbed_simulated": len(jobs)})
+    plan = replace(template, steps=tuple(assembly_order(choice, problem.whole)), robustness=None,
+                   stats={"perturbed_starts": True})
+    return PerturbedCandidate(plan, len(jobs))
 
 
 def rollout_plan(problem: PlanningProblem, result: PlanResult,

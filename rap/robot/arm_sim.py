@@ -60,7 +60,7 @@ from rap.robot.arms.ur_model import solver_for
 from rap.robot.program import Program
 from rap.stats import Rate, rate
 from rap.sim.params import DEFAULT_PARAMS
-from rap.sim.shapes import assembly_pieces
+from rap.sim.shapes import assembly_pieces, shrunk_piece
 
 __all__ = ["ArmSimParams", "StepCounts", "ArmOutcome", "run_arm", "DEFAULT_ARM_SIM"]
 
@@ -109,14 +109,6 @@ def _prism(world, poly_m, depth_lo, depth_hi, frame, ref):
     return [list(map(float, v)) for v in verts]
 
 
-def _shrink(poly, inset_units):
-    cx = sum(x for x, _ in poly) / len(poly)
-    cy = sum(y for _, y in poly) / len(poly)
-    size = max(max(abs(x - cx), abs(y - cy)) for x, y in poly) or 1.0
-    f = max(0.5, 1.0 - inset_units / size)
-    return [(cx + f * (x - cx), cy + f * (y - cy)) for x, y in poly]
-
-
 def _faces(n):
     idx = []
     for i in range(1, n - 1):
@@ -155,7 +147,7 @@ class _Scene:
             shapes, visuals, masses = [], [], []
             rgba = (0.45, 0.45, 0.5, 1) if pid == program.fixture else colours[k % 3]
             for pc in polys:
-                v = _prism(w, _shrink(pc, inset), lo, hi, fr, ref)
+                v = _prism(w, shrunk_piece(pc, inset), lo, hi, fr, ref)
                 shape = w.createCollisionShape(w.GEOM_MESH, vertices=v)
                 # the margin belongs to the shape, and changeDynamics sets it only through a
                 # body's base: a static holder far below the table sets it for the links too

@@ -51,7 +51,8 @@ __all__ = ["ServeConfig", "BadRequest", "PlanBody", "parse_plan_body", "parse_pl
            "PLAN_BODY_OPENAPI", "UPLOAD_OPENAPI", "UPLOAD_NAME_HELP",
            "REQUEST_KEYS", "DETAILS_HEADER", "PLANNER_OPTIONS", "UPLOAD_SUFFIXES"]
 
-REQUEST_KEYS = ("assembly", "method", "seed", "options", "constraints", "budget_s", "rollouts")
+REQUEST_KEYS = ("assembly", "method", "seed", "options", "constraints", "budget_s", "rollouts",
+                "perturbed_candidate")
 # option -> (methods it applies to, kind, low, high, low inclusive): make_planner's keywords, as
 # the methods declare them (rap.plan.methods), for the API's schema
 PLANNER_OPTIONS = {name: (methods, opt.kind, opt.low, opt.high, not opt.low_open)
@@ -227,6 +228,7 @@ class PlanBody:
     constraints: CellConstraints
     budget_s: float
     rollouts: bool = True
+    perturbed: bool = False  # the request's perturbed_candidate
 
 
 def parse_plan_body(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optimal_parts: int = 16,
@@ -253,6 +255,12 @@ def parse_plan_body(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optim
     rollouts = doc.get("rollouts", True)
     if not isinstance(rollouts, bool):
         raise BadRequest(400, f"rollouts {rollouts!r}: must be true or false")
+    perturbed = doc.get("perturbed_candidate", False)
+    if not isinstance(perturbed, bool):
+        raise BadRequest(400, f"perturbed_candidate {perturbed!r}: must be true or false")
+    if perturbed and not (rollouts and method == "search"):
+        raise BadRequest(400, "perturbed_candidate: the search with rollouts only (method "
+                              "'search', rollouts true)")
     assembly = request_assembly(doc["assembly"], max_parts, max_vertices)
     if method == "optimal" and len(assembly) > max_optimal_parts:
         raise BadRequest(413, f"method 'optimal': {len(assembly)} parts; this service finds the "
@@ -261,7 +269,8 @@ def parse_plan_body(body: bytes, *, max_parts: int = LIMITS.max_parts, max_optim
         constraints.check(assembly)
     except ParameterError as exc:
         raise BadRequest(400, exc.for_name("constraints.base")) from None
-    return PlanBody(assembly, method, int(seed), options, constraints, budget_s, rollouts)
+    return PlanBody(assembly, method, int(seed), options, constraints, budget_s, rollouts,
+                    perturbed)
 
 
 def parse_plan_request(body: bytes, **limits):
@@ -328,6 +337,12 @@ PLAN_BODY_OPENAPI = {
                              "rollouts on the simulation pool under the shipped cell's errors "
                              "(and, for the search, choose among its 3 best plans by it): "
                              "`sequence_success` and each step's `execution`"},
+                "perturbed_candidate": {"type": "boolean", "default": False,
+                                        "description": "With rollouts, the search: its choice "
+                                        "also measures the best plan on perturbed-start scores "
+                                        "(every operation simulated once with the placed parts "
+                                        "where rollouts leave them; `rap-farm plan "
+                                        "--perturbed-candidate`)"},
                 "budget_s": {"type": "number", "exclusiveMinimum": 0,
                              "description": "The request's time budget in seconds (default "
                              "and cap: the service's, 120 and 600 unless set otherwise). The "

@@ -173,7 +173,7 @@ class PlanningApp:
         options, budget = request_limits(body, arrived, self.config)
         req = PlanRequest(body.assembly, body.method, self.params, body.seed, budget=budget,
                           planner_options=options, constraints=body.constraints,
-                          rollouts=body.rollouts)
+                          rollouts=body.rollouts, perturbed=body.perturbed)
         result = self.service.plan(req)
         self._maybe_flush()
         return result

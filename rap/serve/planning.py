@@ -130,6 +130,8 @@ class PlanRequest:
     planner_options: dict = field(default_factory=dict)  # make_planner's keyword options
     constraints: Any = None  # rap.plan.cell.constraints.CellConstraints; None: none
     rollouts: bool = False  # measure the plan by rollouts on the pool (and choose: the search)
+    perturbed: bool = False  # with rollouts, the search: the choice also measures the best plan
+    # on perturbed-start scores (``rap.plan.execution.ExecutionOptions.perturbed``)
 
 
 class PlanningService:
@@ -178,7 +180,7 @@ class PlanningService:
             t = time.perf_counter()
             options, execution, runner = dict(request.planner_options), None, None
             if request.rollouts:
-                execution, runner = self._execution(request.assembly)
+                execution, runner = self._execution(request.assembly, request.perturbed)
                 if request.method == "search":
                     options.setdefault("alternatives", EXECUTION_CANDIDATES)
             result = plan(problem, request.method, scorer=scorer, samples=request.samples,
@@ -191,15 +193,17 @@ class PlanningService:
             with self._count_lock:
                 self._active -= 1
 
-    def _execution(self, assembly):
-        """The rollouts of a request (``rap.plan.execution``): the shipped cell's errors and unit;
-        on the shared pool, or the local simulator (``local_sim``)."""
+    def _execution(self, assembly, perturbed: bool = False):
+        """The rollouts of a request (``rap.plan.execution``): the shipped cell's errors and unit,
+        the perturbed candidate when asked for; on the shared pool, or the local simulator
+        (``local_sim``)."""
         from rap.plan.execution import ExecutionOptions
         from rap.robot.cell import Cell
 
         cell = Cell()
         options = ExecutionOptions(errors=cell.error_model(),
-                                   mm_per_unit=cell.unit_metres(assembly.units) * 1000.0)
+                                   mm_per_unit=cell.unit_metres(assembly.units) * 1000.0,
+                                   perturbed=perturbed)
         if self.pool is None:
             return options, self.simulations.backend
         from rap.farm.rollouts import PoolRollouts

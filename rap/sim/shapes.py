@@ -17,7 +17,7 @@ from functools import lru_cache
 
 from rap.assembly import Assembly, Part
 
-__all__ = ["convex_pieces", "triangles", "assembly_pieces", "area_centroid"]
+__all__ = ["shrunk_piece", "convex_pieces", "triangles", "assembly_pieces", "area_centroid"]
 
 Pt = tuple[Fraction, Fraction]
 
@@ -145,3 +145,15 @@ def area_centroid(pieces) -> tuple[float, float, float]:
             cx += a * (x0 + x1 + x2) / 3
             cy += a * (y0 + y1 + y2) / 3
     return a_sum, cx / a_sum, cy / a_sum
+
+
+def shrunk_piece(poly, inset: float) -> list[tuple[float, float]]:
+    """A float convex piece scaled about its vertex mean so that its farthest vertex comes
+    ``inset`` nearer (at most halved): physics models shrink pieces so that parts which touch
+    when assembled are not pressed together (the arm's pybullet world, the arm's planar twin).
+    O(vertices)."""
+    cx = sum(x for x, _ in poly) / len(poly)
+    cy = sum(y for _, y in poly) / len(poly)
+    size = max(max(abs(x - cx), abs(y - cy)) for x, y in poly) or 1.0
+    f = max(0.5, 1.0 - inset / size)
+    return [(cx + f * (x - cx), cy + f * (y - cy)) for x, y in poly]

@@ -220,6 +220,31 @@ def test_tolerances_on_the_pool_are_the_ones_computed_here(ray_local):
     assert here[0] != here[1]  # two different jobs, in their order
 
 
+def test_perturbed_successes_on_the_pool_are_the_ones_computed_here(ray_local):
+    """Operations simulated once from perturbed starts (rap.execution.perturbed) as pool tasks of
+    ``PERTURBED_BATCH`` operations, in the jobs' order: the counts of the same calls here."""
+    from rap.execution.error_model import ErrorModel
+    from rap.execution.perturbed import PerturbedRunner, perturbed_successes
+    from rap.farm.pool import SimPool
+    from rap.farm.rollouts import PERTURBED_BATCH, PoolRollouts
+    from rap.io import load_assembly
+    from rap.plan.graph import reachable
+    from rap.plan.problem import PlanningProblem
+    from rap.sim.params import SimParams
+
+    problem = PlanningProblem(load_assembly(ASSEMBLIES / "cells" / "arch.json"), SimParams(trials=10),
+                              3)
+    ops = [op for c in reachable(problem).values() for op in c if not problem.is_free(op)]
+    jobs = [(problem.assembly, op, problem.params, ErrorModel(), 2.0, problem.seed(op))
+            for op in ops[:PERTURBED_BATCH + 3]]  # two tasks, the second not full
+    here = [perturbed_successes(*job) for job in jobs]
+    with SimPool(2, backend=REAL) as pool:
+        runner = PoolRollouts(pool)
+        assert isinstance(runner, PerturbedRunner)
+        assert runner.run_perturbed(jobs) == here and runner.run_perturbed([]) == []
+    assert len(set(here)) > 1  # not one count for every job
+
+
 def test_rollouts_on_the_pool_are_the_same_on_one_worker_and_two(ray_local):
     """Whole-plan rollouts (rap.execution) as pool tasks: chunk results depend on the seed and
     the indices only, whichever worker ran them and in whatever order."""

@@ -93,15 +93,16 @@ def test_the_perturbed_candidate_is_the_best_plan_on_perturbed_start_scores(monk
     problem = PlanningProblem(load_assembly(ARCH), SimParams(trials=20), 5)
     opts = ExecutionOptions(mm_per_unit=2.0, tolerances=False, perturbed=True)
     template = PlanResult(PlanStatus.FOUND, "search", "arch", robustness=0.5)
-    here = ex.perturbed_candidate(problem, template, None, opts)
+    found = ex.perturbed_candidate(problem, template, None, opts)
+    here, simulated = found.plan, found.simulated
     sim = LocalSimulator(processes=2)
     try:
-        on_workers = ex.perturbed_candidate(problem, template, sim, opts)
+        on_workers = ex.perturbed_candidate(problem, template, sim, opts).plan
         planned = plan(problem, simulator=sim, execution=opts, alternatives=1)
     finally:
         sim.close()
     assert here is not None and here.steps == on_workers.steps and here.robustness is None
-    assert here.stats["perturbed_starts"] and here.stats["perturbed_simulated"] > 0
+    assert here.stats["perturbed_starts"] and simulated > 0
     assert is_assembly_order(here.steps, problem.assembly.ids) is None
     graph = reachable(problem)
     score = {problem.key(op): 1.0 if problem.is_free(op) else perturbed_successes(
@@ -116,5 +117,33 @@ def test_the_perturbed_candidate_is_the_best_plan_on_perturbed_start_scores(monk
     flagged = [c for c in planned.sequence.candidates if c.get("perturbed_starts")]
     assert len(planned.sequence.candidates) in (2, 3) and len(flagged) <= 1
     assert len(flagged) == len(planned.sequence.candidates) - 2  # offered unless a duplicate
+    assert planned.stats["perturbed_simulated"] == simulated
+    assert planned.stats["perturbed_outcome"] == ("offered" if flagged else "duplicate")
     monkeypatch.setattr(ex, "PERTURBED_MAX_OPERATIONS", 3)
-    assert ex.perturbed_candidate(problem, template, None, opts) is None
+    assert ex.perturbed_candidate(problem, template, None, opts) == ex.PerturbedCandidate(
+        None, 0, too_large=True)
+
+
+
+def test_perturbed_counts_are_kept_in_the_score_cache_under_their_own_keys():
+    """A second candidate on the same cache simulates nothing and finds the same plan; the
+    counts' keys are never exact-start keys, and another scale of errors gets other keys."""
+    from dataclasses import replace
+
+    from rap.io import load_assembly
+    from rap.plan import execution as ex
+    from rap.plan.graph import reachable
+    from rap.plan.scoring.cache import ScoreCache
+
+    problem = PlanningProblem(load_assembly(ARCH), SimParams(trials=20), 5)
+    opts = ExecutionOptions(mm_per_unit=2.0, tolerances=False, perturbed=True)
+    template = PlanResult(PlanStatus.FOUND, "search", "arch", robustness=0.5)
+    cache = ScoreCache()
+    first = ex.perturbed_candidate(problem, template, None, opts, cache)
+    again = ex.perturbed_candidate(problem, template, None, opts, cache)
+    assert first.simulated == len(cache) > 0 and again.simulated == 0
+    assert again.plan is not None and again.plan.steps == first.plan.steps
+    exact = {problem.key(op) for ops in reachable(problem).values() for op in ops}
+    assert not exact & {k for k, _ in cache.items()}
+    other = ex.perturbed_candidate(problem, template, None, replace(opts, mm_per_unit=1.0), cache)
+    assert other.simulated == first.simulated and len(cache) == 2 * first.simulated

@@ -177,6 +177,11 @@ BAD_REQUESTS = [
                                         for i in range(1001)]}), 413),  # past the input bounds
     ("budget zero", _body(DOVETAIL, budget_s=0), 400),
     ("rollouts not a boolean", _body(DOVETAIL, rollouts="yes"), 400),
+    ("perturbed not a boolean", _body(DOVETAIL, method="search", rollouts=True,
+                                      perturbed_candidate=1), 400),
+    ("perturbed without rollouts", _body(DOVETAIL, method="search", perturbed_candidate=True), 400),
+    ("perturbed with greedy", _body(DOVETAIL, method="sim", rollouts=True,
+                                    perturbed_candidate=True), 400),
     ("budget not a number", _body(DOVETAIL, budget_s="60"), 400),
     ("budget over the cap", _body(DOVETAIL, budget_s=601), 413),
 ]
@@ -326,6 +331,28 @@ def test_the_answer_carries_sequence_success_measured_on_the_pool(service):
     assert seq["rollouts"] >= 100 and seq["interval"][0] <= seq["rate"] <= seq["interval"][1]
     assert seq["chosen_by"] == "sequence success" and len(seq["candidates"]) >= 2
     assert all(s["execution"]["reached"] >= 1 for s in doc["steps"][:1])
+
+
+def test_the_perturbed_candidate_is_measured_on_the_services_pool(service, tmp_path):
+    """``"perturbed_candidate": true`` (``rap-farm plan --perturbed-candidate`` through
+    ``--server``): the operations are simulated from perturbed starts on the service's pool (the
+    count in the answer's details) and the choice measures at most one more plan."""
+    from rap.serve.api import DETAILS_HEADER
+
+    arch = json.loads((ASSEMBLIES / "cells" / "arch.json").read_text())
+    status, doc, headers = _call(service, "/plan", _body(arch, method="search", seed=5,
+                                                          rollouts=True, perturbed_candidate=True))
+    assert status == 200 and doc["format"] == 3, doc
+    details = {k.lower(): v for k, v in headers.items()}[DETAILS_HEADER.lower()]
+    stats = json.loads(details)["stats"]
+    assert stats["perturbed_simulated"] >= 1, stats
+    flagged = [c for c in doc["sequence_success"]["candidates"] if c.get("perturbed_starts")]
+    assert len(flagged) == (stats["perturbed_outcome"] == "offered")
+    assert doc["sequence_success"]["rollouts"] >= 100
+    p = _cli(ASSEMBLIES / "cells" / "arch.json", "--server", service, "--token", TOKEN, "--seed",
+             "5", "--perturbed-candidate", cwd=tmp_path)  # the flag through the client
+    assert p.returncode == 0, p.stderr
+    assert "perturbed-start scores" in p.stdout
 
 
 def test_a_small_budget_gets_the_searchs_best_plan_and_greedy_budget_spent(service):
