@@ -8,7 +8,10 @@ what they measure.
    the search's own first, is measured by rollouts (``rap.execution.sequence``) on the **same**
    seeds (common random numbers), in waves of ``CHOICE_WAVES`` (100, then 200 rollouts each);
    after a wave a plan whose interval lies wholly below the leader's is dropped, and so is an
-   alternative that measures no better than the search's plan. An alternative
+   alternative that measures no better than the search's plan. A **close call** (an alternative
+   measured at least ``CLOSE_LEAD`` = 0.03 above the search's plan, but not beyond its interval)
+   is measured on, the leading alternative and the search's plan alone, to ``CLOSE_WAVES`` (400,
+   then 800 rollouts each) until it is decided. An alternative
    is chosen only when its interval lies wholly above the search's plan's measured success (the
    best such); else the search's plan stays. The search's plan is dropped only when measured
    worse beyond both intervals, so the chosen plan is never measured worse than it beyond their
@@ -56,9 +59,13 @@ from rap.plan.report.result import PlanResult
 from rap.stats import rate
 
 __all__ = ["ExecutionOptions", "execute_report", "choose", "rollout_plan", "CHOICE_WAVES",
+           "CLOSE_WAVES", "CLOSE_LEAD",
            "perturbed_candidate", "PerturbedCandidate", "PERTURBED_MAX_OPERATIONS"]
 
 CHOICE_WAVES = (100, 200)  # rollouts of each candidate while choosing
+#: a close call: after CHOICE_WAVES, an alternative measured at least CLOSE_LEAD above the search's
+#: plan but not beyond its interval is measured on with the search's plan, to these rollouts
+CLOSE_WAVES, CLOSE_LEAD = (400, 800), 0.03
 
 
 @dataclass(frozen=True)
@@ -177,6 +184,19 @@ def choose(problem: PlanningProblem, plans: Sequence[PlanResult], runner: Rollou
             on_progress(f"rollouts: {target} of each plan, {len(alive)} still in the running")
         if len(alive) == 1:
             break
+    for target in CLOSE_WAVES:  # a close call: the leading alternative and the search's plan
+        if any(i and rates[i].low > rates[0].value for i in alive):
+            break  # decided
+        close = [i for i in alive if i and rates[i].value >= rates[0].value + CLOSE_LEAD]
+        if not close:
+            break
+        alive = [0, max(close, key=lambda i: (rates[i].value, -i))]
+        for i in alive:
+            outcomes[i] += runner.run_rollouts(asm, rplans[i], seed, chunks(done[i], target))
+            done[i] = target
+            rates[i] = rate(*_wins_runs(rplans[i], outcomes[i]))
+        if on_progress is not None:
+            on_progress(f"rollouts: {target} of the search's plan and its closest rival")
     better = [i for i in alive if i and rates[i].low > rates[0].value]
     chosen = max(better, key=lambda i: (rates[i].value, -i)) if better else 0
     return chosen, outcomes

@@ -50,6 +50,21 @@ def test_an_alternative_is_chosen_only_when_measured_better_beyond_noise():
     # nothing left to beat the search's plan after the first wave: the choice stops there
 
 
+def test_a_close_call_is_measured_on_until_it_is_decided():
+    """An alternative 0.06 above the search's plan is not beyond its interval at 200 rollouts:
+    the two are measured on (400 each) and it is chosen; 0.02 above is not a close call."""
+    problem, plans = _plans(3)
+    opts = ExecutionOptions()
+    chosen, outcomes = choose(problem, plans, ByPlan([0.70, 0.76, 0.2]), opts, 0)
+    runs = [sum(len(o.failed_at) for o in outs) for outs in outcomes]
+    assert chosen == 1 and runs == [400, 400, 100]
+    chosen, outcomes = choose(problem, plans, ByPlan([0.70, 0.72, 0.2]), opts, 0)
+    assert chosen == 0 and [sum(len(o.failed_at) for o in outs) for outs in outcomes] == \
+        [200, 200, 100]
+    chosen, outcomes = choose(problem, plans, ByPlan([0.70, 0.735, 0.2]), opts, 0)
+    assert max(sum(len(o.failed_at) for o in outs) for outs in outcomes) == 800
+
+
 def test_the_default_chooses_by_sequence_success_and_never_worse_than_the_product():
     from rap.io import load_assembly
     from rap.plan import plan
