@@ -517,6 +517,27 @@ def test_a_plain_plan_sends_no_constraints_and_the_cell_has_the_cli_help(page, s
     assert "robot cell" not in page.inner_text("#plan-status")
 
 
+def test_the_perturbed_candidate_is_the_searchs_and_the_page_says_what_became_of_it(page,
+                                                                                  service):
+    """The checkbox is enabled for the search only and sends ``perturbed_candidate``; the status
+    line says what became of the candidate (the answer's details), with the API's help as its
+    tooltip."""
+    _inspect(page, service, CELLS / "arch.json", method="sim")
+    assert page.is_disabled("#perturbed")
+    page.select_option("#method", "search")
+    assert page.is_enabled("#perturbed")
+    assert "perturbed-start" in page.get_attribute("#perturbed-label", "title")
+    page.check("#perturbed")
+    state, body = _plan_sent(page)
+    assert state == "planned" and body["perturbed_candidate"] is True
+    status = page.inner_text("#plan-status")
+    assert "the best plan on perturbed starts: " in status and "operations simulated" in status
+    page.select_option("#method", "sim")  # checked but not the search: not sent
+    state, body = _plan_sent(page)
+    assert state == "planned" and "perturbed_candidate" not in body
+    assert "perturbed starts" not in page.inner_text("#plan-status")
+
+
 def test_a_cell_that_admits_no_plan_is_one_line_and_no_storyboard(page, service):
     """side-peg's peg enters only from the right: a cone around straight down admits no plan
     (tests/plan/cell/test_constraints.py); the service's line names the flag that blocks it."""

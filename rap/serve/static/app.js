@@ -101,6 +101,12 @@
         ? " Here: several cones separated by spaces, e.g. 0,-1:30 -1,0:30." : "");
     }
     $("cell-friction").placeholder = String(cell.friction.default);
+    $("perturbed-label").title = props.perturbed_candidate.description;
+    searchOnly();
+  }
+
+  function searchOnly() { // the perturbed candidate is the search's (POST /plan refuses it else)
+    $("perturbed").disabled = $("method").value !== "search";
   }
 
   // -- the robot cell -----------------------------------------------------------------------------
@@ -426,9 +432,11 @@
     $("plan-status").title = "";
     const asked = performance.now();
     // the seed is spliced as typed: JSON numbers past 2^53 would lose digits in JavaScript
+    const perturbed = $("perturbed").checked && $("method").value === "search";
     const body = `{"assembly":${JSON.stringify(state.inspected.assembly)},` +
       `"method":${JSON.stringify($("method").value)},"seed":${seed}` +
-      (cell ? `,"constraints":${JSON.stringify(cell)}` : "") + "}";
+      (cell ? `,"constraints":${JSON.stringify(cell)}` : "") +
+      (perturbed ? `,"perturbed_candidate":true` : "") + "}";
     try {
       const { doc, text, headers } = await request("/plan", { method: "POST", body,
         headers: { "Content-Type": "application/json" } });
@@ -490,12 +498,21 @@
       `${seq.interval[0].toFixed(3)}-${seq.interval[1].toFixed(3)}, ${seq.rollouts} rollouts, ` +
       `chosen by ${seq.chosen_by})` + (flagged.length ? `; tolerance below the cell's error ` +
       `budget: step ${flagged.join(", ")}` : "") : "";
+    // what became of the perturbed candidate (the answer's details: rap.plan._with_perturbed)
+    const stats = (state.details && state.details.stats) || {};
+    const fate = stats.perturbed_outcome === "offered"
+      ? (seq && seq.candidates.some((c) => c.perturbed_starts && c.chosen) ? "chosen"
+        : "measured, not chosen")
+      : { duplicate: "one of the search's own", none: "none succeeds from perturbed starts",
+          "too large": "not sought (over 3,000 operations)" }[stats.perturbed_outcome];
+    const perturbed = fate ? `; the best plan on perturbed starts: ${fate} ` +
+      `(${stats.perturbed_simulated} operations simulated)` : "";
     // the default scorer's guard: the assembly looked unlike the training data, and what it did
     const g = doc.guard;
     const guard = g ? `; unfamiliar assembly (${Math.round(100 * g.outside)}% of ` +
       `${g.operations} sampled operations far from the training data): ${g.action}` : "";
     $("plan-status").textContent = `${doc.method} plan of ${doc.assembly}: robustness R = ${r} ` +
-      `over ${doc.steps.length} steps${measured}${failures}${guard}${cell}, planned in ` +
+      `over ${doc.steps.length} steps${measured}${perturbed}${failures}${guard}${cell}, planned in ` +
       `${doc.seconds.toFixed(2)} s${evaluated}; ${timing}`;
     const tbody = $("steps").querySelector("tbody");
     tbody.textContent = "";
@@ -733,6 +750,7 @@
       health();
       methods().catch((e) => say(e.message));
     });
+    $("method").addEventListener("change", searchOnly);
     $("file").addEventListener("change", () => {
       const f = $("file").files[0];
       if (f) readFile(f);
