@@ -213,6 +213,13 @@ _PERTURBED_FATE = {"duplicate": "is one of the search's own",
                    "too large": "was not sought: the graph has over {limit:,} operations"}
 
 
+def _perturbed_cost(stats: dict) -> str:
+    """``N operations simulated`` (``, M from the score cache`` where it held some)."""
+    cached = stats.get("perturbed_cached", 0)
+    return (f"{stats.get('perturbed_simulated', '?')} operations simulated"
+            + (f", {cached} from the score cache" if cached else ""))
+
+
 def sequence_lines(result) -> list[str]:
     """What the rollouts measured (plan format 3): the sequence success beside R, how the plan
     was chosen, and the steps whose tolerance is below the cell's error budget."""
@@ -230,7 +237,7 @@ def sequence_lines(result) -> list[str]:
         pert = sum(bool(c.get("perturbed_starts")) for c in seq.candidates)
         whose = ("plans of the search" if not pert else
                  f"plans (the search's {len(seq.candidates) - pert} and the best on perturbed-start "
-                 f"scores: {result.stats.get('perturbed_simulated', '?')} operations simulated)")
+                 f"scores: {_perturbed_cost(result.stats)})")
         lines.append(f"chosen by sequence success among {len(seq.candidates)} {whose} "
                      + ("(its best product)" if seq.candidates[0]["chosen"] else
                         f"(the best product measured {seq.candidates[0]['rate']:.3f})")
@@ -241,7 +248,7 @@ def sequence_lines(result) -> list[str]:
 
         fate = fate.format(limit=PERTURBED_MAX_OPERATIONS)
         lines.append(f"the best plan on perturbed-start scores {fate} "
-                     f"({result.stats.get('perturbed_simulated', 0)} operations simulated)")
+                     f"({_perturbed_cost(result.stats)})")
     flagged = [i for i, s in enumerate(result.steps, 1)
                if s.execution is not None and s.execution.below_budget]
     if flagged:

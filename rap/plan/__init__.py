@@ -132,8 +132,8 @@ def plan(assembly, method="search", *, model=None, constraints=None,
 def _with_perturbed(problem, result, candidates, runner, execution, cache=None) -> tuple:
     """``candidates`` and, unless it is one of them or the search's plan, the best plan on
     perturbed-start scores (``rap.plan.execution.perturbed_candidate``). The search's ``stats``
-    get what became of it (its cost and fate, for the summary line): ``perturbed_simulated``
-    (operations) and ``perturbed_outcome`` (``offered``, ``duplicate``, ``none``: no sequence
+    get what became of it (its cost and fate, for the summary line): ``perturbed_simulated`` and
+    ``perturbed_cached`` (operations simulated, found in the cache) and ``perturbed_outcome`` (``offered``, ``duplicate``, ``none``: no sequence
     succeeds from perturbed starts, or ``too large``: past ``PERTURBED_MAX_OPERATIONS``).
     ``cache``: the scorer's score cache, which keeps the perturbed-start counts too."""
     from rap.plan.execution import perturbed_candidate
@@ -146,7 +146,8 @@ def _with_perturbed(problem, result, candidates, runner, execution, cache=None) 
     outcome = ("offered" if extra is not None else "too large" if found.too_large else "none")
     if extra is not None and steps(extra) in {steps(p) for p in (result, *candidates)}:
         extra, outcome = None, "duplicate"
-    result.stats.update(perturbed_simulated=simulated, perturbed_outcome=outcome)
+    result.stats.update(perturbed_simulated=simulated, perturbed_cached=found.cached,
+                        perturbed_outcome=outcome)
     return tuple(candidates) if extra is None else (*candidates, extra)
 
 

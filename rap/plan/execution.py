@@ -93,12 +93,13 @@ PERTURBED_MAX_OPERATIONS = 3000
 @dataclass(frozen=True)
 class PerturbedCandidate:
     """What ``perturbed_candidate`` found: ``plan`` (None past the operation limit,
-    ``too_large``, or where no sequence has a positive score) and ``simulated``, the operations
-    it simulated (those not in the cache)."""
+    ``too_large``, or where no sequence has a positive score), ``simulated``, the operations it
+    simulated, and ``cached``, those whose counts the cache held."""
 
     plan: PlanResult | None
     simulated: int
     too_large: bool = False
+    cached: int = 0
 
 
 def perturbed_candidate(problem: PlanningProblem, template: PlanResult, runner,
@@ -139,13 +140,14 @@ def perturbed_candidate(problem: PlanningProblem, template: PlanResult, runner,
                        for k, w in zip(missing, wins))
     score_of = {s: [score.get(problem.key(op), 1.0) for op in ops] for s, ops in graph.items()}
     best, arg = dp_choice(graph, score_of)
+    cached = len(todo) - len(jobs)
     if not best.get(problem.whole, 0.0) > 0.0:
-        return PerturbedCandidate(None, len(jobs))
+        return PerturbedCandidate(None, len(jobs), cached=cached)
     choice = {sub: PlanStep.of(op, "sim") for sub, (_, op) in
               dp_tree(graph, arg, problem.whole).items()}
     plan = replace(template, steps=tuple(assembly_order(choice, problem.whole)), robustness=None,
                    stats={"perturbed_starts": True})
-    return PerturbedCandidate(plan, len(jobs))
+    return PerturbedCandidate(plan, len(jobs), cached=cached)
 
 
 def rollout_plan(problem: PlanningProblem, result: PlanResult,

@@ -157,6 +157,7 @@ def test_perturbed_counts_are_kept_in_the_score_cache_under_their_own_keys():
     first = ex.perturbed_candidate(problem, template, None, opts, cache)
     again = ex.perturbed_candidate(problem, template, None, opts, cache)
     assert first.simulated == len(cache) > 0 and again.simulated == 0
+    assert (first.cached, again.cached) == (0, first.simulated)
     assert again.plan is not None and again.plan.steps == first.plan.steps
     exact = {problem.key(op) for ops in reachable(problem).values() for op in ops}
     assert not exact & {k for k, _ in cache.items()}

@@ -506,7 +506,8 @@
       : { duplicate: "one of the search's own", none: "none succeeds from perturbed starts",
           "too large": "not sought (over 3,000 operations)" }[stats.perturbed_outcome];
     const perturbed = fate ? `; the best plan on perturbed starts: ${fate} ` +
-      `(${stats.perturbed_simulated} operations simulated)` : "";
+      `(${stats.perturbed_simulated} operations simulated` + (stats.perturbed_cached
+        ? `, ${stats.perturbed_cached} from the score cache` : "") + ")" : "";
     // the default scorer's guard: the assembly looked unlike the training data, and what it did
     const g = doc.guard;
     const guard = g ? `; unfamiliar assembly (${Math.round(100 * g.outside)}% of ` +
