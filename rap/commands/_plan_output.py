@@ -210,7 +210,9 @@ def _executed(step) -> tuple[str]:
 #: ``perturbed_outcome``, ``rap.plan._with_perturbed``)
 _PERTURBED_FATE = {"duplicate": "is one of the search's own",
                    "none": "does not exist: no sequence succeeded from perturbed starts",
-                   "too large": "was not sought: the graph has over {limit:,} operations"}
+                   "too large": "was not sought: the graph has over {limit:,} operations",
+                   "over budget": "was not finished within the budget (the counts simulated "
+                                  "are in the score cache for the next run)"}
 
 
 def _perturbed_cost(stats: dict) -> str:

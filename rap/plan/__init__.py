@@ -129,21 +129,27 @@ def plan(assembly, method="search", *, model=None, constraints=None,
             simulator.close()
 
 
-def _with_perturbed(problem, result, candidates, runner, execution, cache=None) -> tuple:
+def _with_perturbed(problem, result, candidates, runner, execution, scorer=None) -> tuple:
     """``candidates`` and, unless it is one of them or the search's plan, the best plan on
     perturbed-start scores (``rap.plan.execution.perturbed_candidate``). The search's ``stats``
     get what became of it (its cost and fate, for the summary line): ``perturbed_simulated`` and
     ``perturbed_cached`` (operations simulated, found in the cache) and ``perturbed_outcome`` (``offered``, ``duplicate``, ``none``: no sequence
-    succeeds from perturbed starts, or ``too large``: past ``PERTURBED_MAX_OPERATIONS``).
-    ``cache``: the scorer's score cache, which keeps the perturbed-start counts too."""
+    succeeds from perturbed starts, ``too large``: past ``PERTURBED_MAX_OPERATIONS``, or ``over
+    budget``: past the scorer's budget of simulations or ``perturbed_seconds``). ``scorer``: its
+    cache keeps the perturbed-start counts too; its budget's simulations left bound them."""
     from rap.plan.execution import perturbed_candidate
 
     def steps(p):
         return tuple((s.moving, s.fixed, s.direction) for s in p.steps)
 
-    found = perturbed_candidate(problem, result, runner, execution, cache)
+    cache, left = None, None
+    if scorer is not None:
+        cache, limit = scorer.cache, scorer.budget.max_simulations
+        left = None if limit is None else max(0, limit - scorer.stats.sim_run)
+    found = perturbed_candidate(problem, result, runner, execution, cache, left)
     extra, simulated = found.plan, found.simulated
-    outcome = ("offered" if extra is not None else "too large" if found.too_large else "none")
+    outcome = ("offered" if extra is not None else "too large" if found.too_large else
+               "over budget" if found.over_budget else "none")
     if extra is not None and steps(extra) in {steps(p) for p in (result, *candidates)}:
         extra, outcome = None, "duplicate"
     result.stats.update(perturbed_simulated=simulated, perturbed_cached=found.cached,
@@ -168,7 +174,7 @@ def _solve(planner, problem, scorer, execution, runner) -> "PlanResult":
         runner = None
     if execution.perturbed and isinstance(planner, SearchPlanner) and result.found:
         candidates = _with_perturbed(problem, result, candidates, runner or scorer.simulator,
-                                     execution, scorer.cache)
+                                     execution, scorer)
 
     def finish(alt):
         from dataclasses import replace

@@ -60,7 +60,8 @@ from rap.stats import rate
 
 __all__ = ["ExecutionOptions", "execute_report", "choose", "rollout_plan", "CHOICE_WAVES",
            "CLOSE_WAVES", "CLOSE_LEAD",
-           "perturbed_candidate", "PerturbedCandidate", "PERTURBED_MAX_OPERATIONS"]
+           "perturbed_candidate", "PerturbedCandidate", "PERTURBED_MAX_OPERATIONS",
+           "PERTURBED_BATCH"]
 
 CHOICE_WAVES = (100, 200)  # rollouts of each candidate while choosing
 #: a close call: after CHOICE_WAVES, an alternative measured at least CLOSE_LEAD above the search's
@@ -73,8 +74,9 @@ class ExecutionOptions:
     """How a plan's execution is measured: the cell's ``errors`` and ``mm_per_unit`` (the
     assembly's unit in mm), the interval's target ``half_width``, at most ``max_rollouts`` per
     plan, the ``tolerances`` of the steps (simulated) or not, ``carry`` (False: each step from
-    the exact placement, R's assumption) and ``perturbed`` (the choice also measures the best
-    plan on perturbed-start scores, ``perturbed_candidate``)."""
+    the exact placement, R's assumption), ``perturbed`` (the choice also measures the best plan
+    on perturbed-start scores, ``perturbed_candidate``) and ``perturbed_seconds`` (the most its
+    simulations may take; None: no limit)."""
 
     errors: ErrorModel = DEFAULT_ERRORS
     mm_per_unit: float = 1.0
@@ -83,33 +85,41 @@ class ExecutionOptions:
     tolerances: bool = True
     carry: bool = True
     perturbed: bool = False
+    perturbed_seconds: float | None = None
 
 
 #: the perturbed candidate is built for graphs of at most this many operations (each one simulated
 #: once from a perturbed start: about 0.15 s a core per operation)
 PERTURBED_MAX_OPERATIONS = 3000
+PERTURBED_BATCH = 64  # operations simulated between two looks at ``perturbed_seconds``
 
 
 @dataclass(frozen=True)
 class PerturbedCandidate:
     """What ``perturbed_candidate`` found: ``plan`` (None past the operation limit,
     ``too_large``, or where no sequence has a positive score), ``simulated``, the operations it
-    simulated, and ``cached``, those whose counts the cache held."""
+    simulated, and ``cached``, those whose counts the cache held; ``over_budget``: not finished
+    within the simulations or the seconds allowed (what was simulated is in the cache)."""
 
     plan: PlanResult | None
     simulated: int
     too_large: bool = False
     cached: int = 0
+    over_budget: bool = False
 
 
 def perturbed_candidate(problem: PlanningProblem, template: PlanResult, runner,
-                        options: ExecutionOptions, cache=None) -> PerturbedCandidate:
+                        options: ExecutionOptions, cache=None,
+                        max_simulations: int | None = None) -> PerturbedCandidate:
     """The best product of perturbed-start scores (``rap.execution.perturbed``) over the problem's
     AND/OR graph, as a plan for the choice: ``template`` (the search's plan) with its steps, R
     unknown (simulated if chosen). Every operation that is not free is simulated once from a
     perturbed start (``runner.run_perturbed`` where the runner has workers, else here), unless
     ``cache`` (a ``ScoreCache``) holds its count (``rap.execution.perturbed.perturbed_key``); the
-    counts simulated are added to it. Nothing is simulated past ``PERTURBED_MAX_OPERATIONS``."""
+    counts simulated are added to it. Nothing is simulated past ``PERTURBED_MAX_OPERATIONS``, nor
+    when more than ``max_simulations`` would be; with ``options.perturbed_seconds`` the
+    simulations go in batches of ``PERTURBED_BATCH`` and stop once that time is spent (a service's
+    request budget: a later request goes on from the cache)."""
     from rap.execution.perturbed import PerturbedRunner, perturbed_key, perturbed_successes
     from rap.plan.scoring.cache import CachedScore
     from rap.plan.dp import dp_choice, dp_tree
@@ -132,15 +142,23 @@ def perturbed_candidate(problem: PlanningProblem, template: PlanResult, runner,
     missing = [k for k in todo if k not in score]
     jobs = [(asm, todo[k], params, options.errors, options.mm_per_unit, problem.seed(todo[k]))
             for k in missing]
-    wins = (runner.run_perturbed(jobs) if isinstance(runner, PerturbedRunner)
-            else [perturbed_successes(*j) for j in jobs])
-    score.update((k, w / params.trials) for k, w in zip(missing, wins))
-    if cache is not None:
-        cache.put_many((pkey[k], CachedScore(w / params.trials, int(w), params.trials))
-                       for k, w in zip(missing, wins))
+    cached = len(todo) - len(jobs)
+    if max_simulations is not None and len(jobs) > max_simulations:
+        return PerturbedCandidate(None, 0, cached=cached, over_budget=True)
+    limit, t0 = options.perturbed_seconds, time.perf_counter()
+    step = len(jobs) if limit is None else PERTURBED_BATCH
+    for i in range(0, len(jobs), max(1, step)):
+        if limit is not None and i and time.perf_counter() - t0 > limit:
+            return PerturbedCandidate(None, i, cached=cached, over_budget=True)
+        batch, keys = jobs[i:i + step], missing[i:i + step]
+        wins = (runner.run_perturbed(batch) if isinstance(runner, PerturbedRunner)
+                else [perturbed_successes(*j) for j in batch])
+        score.update((k, w / params.trials) for k, w in zip(keys, wins))
+        if cache is not None:
+            cache.put_many((pkey[k], CachedScore(w / params.trials, int(w), params.trials))
+                           for k, w in zip(keys, wins))
     score_of = {s: [score.get(problem.key(op), 1.0) for op in ops] for s, ops in graph.items()}
     best, arg = dp_choice(graph, score_of)
-    cached = len(todo) - len(jobs)
     if not best.get(problem.whole, 0.0) > 0.0:
         return PerturbedCandidate(None, len(jobs), cached=cached)
     choice = {sub: PlanStep.of(op, "sim") for sub, (_, op) in

@@ -180,7 +180,8 @@ class PlanningService:
             t = time.perf_counter()
             options, execution, runner = dict(request.planner_options), None, None
             if request.rollouts:
-                execution, runner = self._execution(request.assembly, request.perturbed)
+                execution, runner = self._execution(request.assembly, request.perturbed,
+                                                    request.budget.max_seconds)
                 if request.method == "search":
                     options.setdefault("alternatives", EXECUTION_CANDIDATES)
             result = plan(problem, request.method, scorer=scorer, samples=request.samples,
@@ -193,17 +194,19 @@ class PlanningService:
             with self._count_lock:
                 self._active -= 1
 
-    def _execution(self, assembly, perturbed: bool = False):
+    def _execution(self, assembly, perturbed: bool = False, seconds: float | None = None):
         """The rollouts of a request (``rap.plan.execution``): the shipped cell's errors and unit,
-        the perturbed candidate when asked for; on the shared pool, or the local simulator
-        (``local_sim``)."""
+        the perturbed candidate when asked for, its simulations within ``eval_share`` of the
+        request's ``seconds``; on the shared pool, or the local simulator (``local_sim``)."""
+        from rap.serve.api import ServeConfig
         from rap.plan.execution import ExecutionOptions
         from rap.robot.cell import Cell
 
         cell = Cell()
         options = ExecutionOptions(errors=cell.error_model(),
                                    mm_per_unit=cell.unit_metres(assembly.units) * 1000.0,
-                                   perturbed=perturbed)
+                                   perturbed=perturbed, perturbed_seconds=None if seconds is None
+                                   else ServeConfig.eval_share * seconds)
         if self.pool is None:
             return options, self.simulations.backend
         from rap.farm.rollouts import PoolRollouts

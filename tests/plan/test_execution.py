@@ -163,3 +163,29 @@ def test_perturbed_counts_are_kept_in_the_score_cache_under_their_own_keys():
     assert not exact & {k for k, _ in cache.items()}
     other = ex.perturbed_candidate(problem, template, None, replace(opts, mm_per_unit=1.0), cache)
     assert other.simulated == first.simulated and len(cache) == 2 * first.simulated
+
+def test_the_perturbed_candidate_stops_at_its_budget_and_a_rerun_goes_on_from_the_cache(
+        monkeypatch):
+    """Past ``max_simulations`` nothing is simulated; past ``perturbed_seconds`` the batch under
+    way finishes and the candidate is not offered, its counts kept; a rerun simulates the rest
+    and finds the plan of an unbounded run."""
+    from dataclasses import replace
+
+    from rap.io import load_assembly
+    from rap.plan import execution as ex
+    from rap.plan.scoring.cache import ScoreCache
+
+    problem = PlanningProblem(load_assembly(ARCH), SimParams(trials=20), 5)
+    opts = ExecutionOptions(mm_per_unit=2.0, tolerances=False, perturbed=True)
+    template = PlanResult(PlanStatus.FOUND, "search", "arch", robustness=0.5)
+    whole = ex.perturbed_candidate(problem, template, None, opts)
+    n = whole.simulated
+    assert ex.perturbed_candidate(problem, template, None, opts, None, n - 1) == \
+        ex.PerturbedCandidate(None, 0, over_budget=True)
+    monkeypatch.setattr(ex, "PERTURBED_BATCH", 5)
+    cache = ScoreCache()
+    cut = ex.perturbed_candidate(problem, template, None, replace(opts, perturbed_seconds=0.0),
+                                 cache)
+    assert cut.over_budget and cut.plan is None and cut.simulated == 5 == len(cache)
+    rest = ex.perturbed_candidate(problem, template, None, opts, cache, n - 5)
+    assert (rest.simulated, rest.cached) == (n - 5, 5) and rest.plan.steps == whole.plan.steps

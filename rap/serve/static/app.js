@@ -504,7 +504,9 @@
       ? (seq && seq.candidates.some((c) => c.perturbed_starts && c.chosen) ? "chosen"
         : "measured, not chosen")
       : { duplicate: "one of the search's own", none: "none succeeds from perturbed starts",
-          "too large": "not sought (over 3,000 operations)" }[stats.perturbed_outcome];
+          "too large": "not sought (over 3,000 operations)",
+          "over budget": "not finished within the request's budget (a later request goes on)" }
+        [stats.perturbed_outcome];
     const perturbed = fate ? `; the best plan on perturbed starts: ${fate} ` +
       `(${stats.perturbed_simulated} operations simulated` + (stats.perturbed_cached
         ? `, ${stats.perturbed_cached} from the score cache` : "") + ")" : "";
