@@ -133,10 +133,11 @@ def _with_perturbed(problem, result, candidates, runner, execution, scorer=None)
     """``candidates`` and, unless it is one of them or the search's plan, the best plan on
     perturbed-start scores (``rap.plan.execution.perturbed_candidate``). The search's ``stats``
     get what became of it (its cost and fate, for the summary line): ``perturbed_simulated`` and
-    ``perturbed_cached`` (operations simulated, found in the cache) and ``perturbed_outcome`` (``offered``, ``duplicate``, ``none``: no sequence
-    succeeds from perturbed starts, ``too large``: past ``PERTURBED_MAX_OPERATIONS``, or ``over
-    budget``: past the scorer's budget of simulations or ``perturbed_seconds``). ``scorer``: its
-    cache keeps the perturbed-start counts too; its budget's simulations left bound them."""
+    ``perturbed_cached`` (operations simulated, found in the cache) and ``perturbed_outcome``
+    (``offered``, ``duplicate``, ``none``: no sequence succeeds from perturbed starts, ``too
+    large``: past ``PERTURBED_MAX_OPERATIONS``, or ``over budget``: past the scorer's budget of
+    simulations or ``perturbed_seconds``). ``scorer``: its cache keeps the perturbed-start counts
+    too; its budget's simulations left bound them."""
     from rap.plan.execution import perturbed_candidate
 
     def steps(p):
