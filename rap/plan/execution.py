@@ -61,7 +61,7 @@ from rap.stats import rate
 __all__ = ["ExecutionOptions", "execute_report", "choose", "rollout_plan", "CHOICE_WAVES",
            "CLOSE_WAVES", "CLOSE_LEAD",
            "perturbed_candidate", "PerturbedCandidate", "PERTURBED_MAX_OPERATIONS",
-           "PERTURBED_BATCH"]
+           "PERTURBED_CHECK_EVERY"]
 
 CHOICE_WAVES = (100, 200)  # rollouts of each candidate while choosing
 #: a close call: after CHOICE_WAVES, an alternative measured at least CLOSE_LEAD above the search's
@@ -91,7 +91,7 @@ class ExecutionOptions:
 #: the perturbed candidate is built for graphs of at most this many operations (each one simulated
 #: once from a perturbed start: about 0.15 s a core per operation)
 PERTURBED_MAX_OPERATIONS = 3000
-PERTURBED_BATCH = 64  # operations simulated between two looks at ``perturbed_seconds``
+PERTURBED_CHECK_EVERY = 64  # operations simulated between two looks at ``perturbed_seconds``
 
 
 @dataclass(frozen=True)
@@ -118,8 +118,8 @@ def perturbed_candidate(problem: PlanningProblem, template: PlanResult, runner,
     ``cache`` (a ``ScoreCache``) holds its count (``rap.execution.perturbed.perturbed_key``); the
     counts simulated are added to it. Nothing is simulated past ``PERTURBED_MAX_OPERATIONS``, nor
     when more than ``max_simulations`` would be; with ``options.perturbed_seconds`` the
-    simulations go in batches of ``PERTURBED_BATCH`` and stop once that time is spent (a service's
-    request budget: a later request goes on from the cache)."""
+    simulations go in batches of ``PERTURBED_CHECK_EVERY`` and stop once that time is spent (a
+    service's request budget: a later request goes on from the cache)."""
     from rap.execution.perturbed import PerturbedRunner, perturbed_key, perturbed_successes
     from rap.plan.scoring.cache import CachedScore
     from rap.plan.dp import dp_choice, dp_tree
@@ -146,7 +146,7 @@ def perturbed_candidate(problem: PlanningProblem, template: PlanResult, runner,
     if max_simulations is not None and len(jobs) > max_simulations:
         return PerturbedCandidate(None, 0, cached=cached, over_budget=True)
     limit, t0 = options.perturbed_seconds, time.perf_counter()
-    step = len(jobs) if limit is None else PERTURBED_BATCH
+    step = len(jobs) if limit is None else PERTURBED_CHECK_EVERY
     for i in range(0, len(jobs), max(1, step)):
         if limit is not None and i and time.perf_counter() - t0 > limit:
             return PerturbedCandidate(None, i, cached=cached, over_budget=True)

@@ -186,8 +186,9 @@ class _World:
             self.space.step(self.twin.dt_s)
 
 
-def _insert(world: _World, assembly: Assembly, op, rng) -> tuple[pymunk.Body, tuple, bool]:
-    """Step ``op`` of one rollout: the cup carries the part in and lets it go (module doc)."""
+def _insert(world: _World, assembly: Assembly, op, rng) -> bool:
+    """Step ``op`` of one rollout: the cup carries the part in and lets it go (module doc);
+    whether it was inserted."""
     plan, twin, mm = world.plan, world.twin, world.mm
     grasp = plan.errors.offsets(rng, op.direction, plan.mm_per_unit)
     body, centre = world.new_body(op.moving)
@@ -220,7 +221,7 @@ def _insert(world: _World, assembly: Assembly, op, rng) -> tuple[pymunk.Body, tu
     world.space.remove(hold, turn, cup)
     world.on_table(body)
     world.run(twin.settle_s)
-    return body, centre, inserted
+    return inserted
 
 
 def _rollout(assembly: Assembly, plan: RolloutPlan, twin: ArmTwin, root_seed: int,
@@ -233,8 +234,7 @@ def _rollout(assembly: Assembly, plan: RolloutPlan, twin: ArmTwin, root_seed: in
         if twin.fixture not in op.fixed or op.moving & placed or not op.fixed <= placed:
             raise ValueError(f"step {k + 1}: the arm's twin runs one-arm plans (each step moves "
                              f"parts not yet placed into the fixture's subassembly)")
-        _, _, inserted = _insert(world, assembly, op, step_rng(root_seed, index, k))
-        if not inserted:
+        if not _insert(world, assembly, op, step_rng(root_seed, index, k)):
             return k
         placed |= op.moving
         last_within.update((pid, k - 1) for pid in op.moving)  # off after this step: fails here

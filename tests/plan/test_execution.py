@@ -182,7 +182,7 @@ def test_the_perturbed_candidate_stops_at_its_budget_and_a_rerun_goes_on_from_th
     n = whole.simulated
     assert ex.perturbed_candidate(problem, template, None, opts, None, n - 1) == \
         ex.PerturbedCandidate(None, 0, over_budget=True)
-    monkeypatch.setattr(ex, "PERTURBED_BATCH", 5)
+    monkeypatch.setattr(ex, "PERTURBED_CHECK_EVERY", 5)
     cache = ScoreCache()
     cut = ex.perturbed_candidate(problem, template, None, replace(opts, perturbed_seconds=0.0),
                                  cache)
